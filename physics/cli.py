@@ -1,0 +1,106 @@
+"""The ``tensegrid`` command line: a thin layer over the Python API.
+
+Sub-commands are registered through the entry-point group ``tensegrid.commands`` (pyproject.toml),
+so each package adds its own without physics importing the packages above it.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Sequence
+
+from physics.errors import TensegridError
+
+__all__ = ["main", "register_simulate"]
+
+
+def _parse_assignments(items: Sequence[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise argparse.ArgumentTypeError(f"--theta expects NAME=VALUE, got {item!r}")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"--theta {name}: {value!r} is not a number") from None
+    return out
+
+
+def _run_simulate(args: argparse.Namespace) -> int:
+    from physics.controllers import FlopController, HoldController
+    from physics.parameters import ParameterSpace
+    from physics.plotting import plot_trajectory
+    from physics.simulate import simulate
+    from physics.trajectory import save_trajectory
+
+    space = ParameterSpace.t6()
+    theta = space.as_array(_parse_assignments(args.theta), check_bounds=False)
+    controller = (HoldController() if args.flops == 0 else
+                  FlopController(args.heading, flops=args.flops, period=args.period))
+    duration = args.duration if args.duration is not None else max(1.0, args.flops * args.period)
+    ds = simulate(theta, controller=controller, duration=duration, sample_rate=args.rate,
+                  noise=args.noise, seed=args.seed)
+    out = Path(args.out)
+    nc = save_trajectory(ds, out / "trajectory.nc")
+    png = plot_trajectory(ds, out / "trajectory.png")
+    com = ds["nodes"].mean("node").values
+    moved = com[-1, :2] - com[0, :2]
+    print(f"simulated {duration:.1f} s ({len(ds.time)} samples at {args.rate:g} Hz); "
+          f"centre of mass moved ({moved[0]:+.3f}, {moved[1]:+.3f}) m; peak tension {float(ds.tension.max()):.0f} N")
+    print(f"wrote {nc}\nwrote {png}")
+    return 0
+
+
+def register_simulate(subparsers) -> None:
+    """Add ``tensegrid simulate``."""
+    p = subparsers.add_parser("simulate", help="simulate the SUPERball flopping; write trajectory.nc and a picture",
+                              description="Simulate the T6 at θ (nominal unless --theta) under the flop controller.")
+    p.add_argument("--out", default="out/simulate", help="output folder (default: out/simulate)")
+    p.add_argument("--theta", nargs="*", default=[], metavar="NAME=VALUE",
+                   help="parameter values in SI, e.g. damping=180 pretension=140")
+    p.add_argument("--heading", type=float, default=0.0, help="goal direction in radians from +x (default 0)")
+    p.add_argument("--flops", type=int, default=1, help="number of flops (0 = just rest; default 1)")
+    p.add_argument("--period", type=float, default=3.0, help="seconds per flop (default 3)")
+    p.add_argument("--duration", type=float, default=None, help="seconds to record (default flops x period)")
+    p.add_argument("--rate", type=float, default=100.0, help="sampling rate in Hz (default 100)")
+    p.add_argument("--noise", type=float, default=0.0, help="std of position noise in m (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
+    p.set_defaults(func=_run_simulate)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser; with ``command`` given, only that sub-command's package is imported
+    (importing belief pulls in torch, which costs seconds)."""
+    parser = argparse.ArgumentParser(prog="tensegrid", description="Identify tensegrity parameters with DART and Bayesian optimization.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    found = {ep.name: ep for ep in entry_points(group="tensegrid.commands")}
+    if "simulate" not in found:  # running from a source tree without the installed metadata
+        register_simulate(sub)
+    names = [command] if command in found else sorted(found)
+    for name in names:
+        try:
+            found[name].load()(sub)
+        except ImportError as exc:  # a package not yet installed must not break the others
+            print(f"tensegrid: command {name!r} unavailable ({exc})", file=sys.stderr)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(argv[0] if argv else None)
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except (TensegridError, argparse.ArgumentTypeError) as exc:
+        print(f"tensegrid {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

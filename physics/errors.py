@@ -1,0 +1,35 @@
+"""Typed errors of tensegrid.
+
+Every error derives from :class:`TensegridError` and, where it fits, from the matching built-in
+(``ParameterError`` is a ``ValueError``) so callers can catch either. Messages name the argument,
+what was expected, what was received and how to fix it.
+"""
+from __future__ import annotations
+
+__all__ = [
+    "TensegridError",
+    "ParameterError",
+    "TrajectoryFormatError",
+    "PhysicsError",
+    "ControllerError",
+]
+
+
+class TensegridError(Exception):
+    """Base class of every error raised by tensegrid."""
+
+
+class ParameterError(TensegridError, ValueError):
+    """A parameter vector or parameter space is invalid (NaN, wrong length, out of bounds...)."""
+
+
+class TrajectoryFormatError(TensegridError, ValueError):
+    """A trajectory dataset or file does not follow the format of docs/data-format.md."""
+
+
+class PhysicsError(TensegridError, RuntimeError):
+    """A simulation diverged or reached a non-physical state (NaN, exploding speed, negative rest length)."""
+
+
+class ControllerError(TensegridError, ValueError):
+    """A controller was given an invalid option or produced an invalid command."""

@@ -1,0 +1,73 @@
+"""Pictures of trajectories (matplotlib, Agg backend): the robot at a few instants and the path
+of its centre of mass. DART's own viewer cannot render off-screen from the pip wheel."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
+
+from physics.geometry import CABLE_NODES, ROD_NODES  # noqa: E402
+
+__all__ = ["draw_robot", "plot_trajectory"]
+
+
+def draw_robot(ax, nodes: np.ndarray, *, color: str = "C0", alpha: float = 1.0, tension: np.ndarray | None = None) -> None:
+    """Draw rods (thick) and cables (thin; red when taut above 1 N if ``tension`` is given) on a 3-D axis."""
+    for a, b in CABLE_NODES:
+        ax.plot(*nodes[[a, b]].T, color="0.6", lw=0.8, alpha=alpha)
+    if tension is not None:
+        for (a, b), t in zip(CABLE_NODES, tension):
+            if t > 1.0:
+                ax.plot(*nodes[[a, b]].T, color="C3", lw=0.6, alpha=alpha * 0.8)
+    for a, b in ROD_NODES:
+        ax.plot(*nodes[[a, b]].T, color=color, lw=3.0, alpha=alpha, solid_capstyle="round")
+
+
+def plot_trajectory(ds: xr.Dataset, path: "str | os.PathLike[str]", *, snapshots: int = 2, title: str | None = None) -> Path:
+    """Save a figure: robot snapshots over time (left) and centre-of-mass path and height (right)."""
+    nodes = ds["nodes"].transpose("time", "node", "axis").values
+    t = ds["time"].values
+    com = np.nanmean(nodes, axis=1)
+    fig = plt.figure(figsize=(11, 4.6))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    idx = np.linspace(0, len(t) - 1, snapshots).round().astype(int)
+    colors = plt.cm.viridis(np.linspace(0.75, 0.1, snapshots))
+    for k, i in enumerate(idx):
+        last = k == snapshots - 1
+        tension = ds["tension"].values[i] if ("tension" in ds and last) else None
+        draw_robot(ax, nodes[i], color=colors[k], alpha=1.0 if last else 0.3, tension=tension)
+    ax.plot(*com.T, color="k", lw=1.5, label="centre of mass")
+    lo, hi = np.nanmin(nodes.reshape(-1, 3), axis=0), np.nanmax(nodes.reshape(-1, 3), axis=0)
+    mid, span = 0.5 * (lo + hi), float(np.max(hi - lo)) * 0.55
+    ax.set_xlim(mid[0] - span, mid[0] + span)
+    ax.set_ylim(mid[1] - span, mid[1] + span)
+    ax.set_zlim(0, 2 * span)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title("robot at t = " + ", ".join(f"{t[i]:.1f}" for i in idx) + " s (faint to solid);\n"
+                 "taut cables red in the last", fontsize=9)
+    ax2 = fig.add_subplot(2, 2, 2)
+    ax2.plot(t, com[:, 0] - com[0, 0], label="x")
+    ax2.plot(t, com[:, 1] - com[0, 1], label="y")
+    ax2.set_ylabel("COM displacement [m]")
+    ax2.legend(fontsize=8)
+    ax2.grid(alpha=0.3)
+    ax3 = fig.add_subplot(2, 2, 4, sharex=ax2)
+    ax3.plot(t, com[:, 2], color="C2")
+    ax3.set_ylabel("COM height [m]")
+    ax3.set_xlabel("time [s]")
+    ax3.grid(alpha=0.3)
+    fig.suptitle(title or "SUPERball T6 trajectory")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
