@@ -1,5 +1,5 @@
 # Every install step of the project lives here; a fresh machine needs only python3.11, pip and gcc.
-PY ?= python3.11
+PY ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
@@ -22,10 +22,11 @@ demo: $(STAMP)
 	$(BIN)/tensegrid simulate --out out/demo
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q --durations=15
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/physics_speed.py
+	$(BIN)/python benchmarks/parameter_effects.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

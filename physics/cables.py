@@ -78,12 +78,18 @@ def node_kinematics(positions: np.ndarray, velocities: np.ndarray, half_lengths:
 def cable_wrenches(positions: np.ndarray, velocities: np.ndarray, half_lengths: np.ndarray,
                    end_a: np.ndarray, end_b: np.ndarray, rest_lengths: np.ndarray,
                    stiffness: float, damping: float, spin_damping: float,
-                   forces_out: np.ndarray, tension_out: np.ndarray, length_out: np.ndarray) -> None:
+                   forces_out: np.ndarray, tension_out: np.ndarray, length_out: np.ndarray) -> float:
     """Generalised forces (36,) of all cables on the six FreeJoints, written into ``forces_out``.
 
-    Also writes cable tensions F (24,) [N] and lengths L (24,) [m]. See the module docstring.
+    Also writes cable tensions F (24,) [N] and lengths L (24,) [m]. Returns the largest squared
+    node speed [m²/s²] (NaN if the state is not finite), the per-step divergence guard.
     """
     p, v, axes = node_kinematics(positions, velocities, half_lengths)
+    fastest = 0.0
+    for n in range(12):
+        s2 = v[n, 0] * v[n, 0] + v[n, 1] * v[n, 1] + v[n, 2] * v[n, 2]
+        if not s2 <= fastest:       # also catches NaN
+            fastest = s2
     node_f = np.zeros((12, 3))
     for j in range(end_a.shape[0]):
         a, b = end_a[j], end_b[j]
@@ -128,6 +134,7 @@ def cable_wrenches(positions: np.ndarray, velocities: np.ndarray, half_lengths: 
         forces_out[6 * i + 3] = f0[0] + f1[0]
         forces_out[6 * i + 4] = f0[1] + f1[1]
         forces_out[6 * i + 5] = f0[2] + f1[2]
+    return fastest
 
 
 def cable_energy(lengths: np.ndarray, rest_lengths: np.ndarray, stiffness: float) -> float:

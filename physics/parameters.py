@@ -243,7 +243,7 @@ class ParameterSpace:
             bad = col <= p.minimum if p.strict else col < p.minimum
             if np.any(bad):
                 raise ParameterError(
-                    f"Parameter {p.name!r} = {col[bad][0]!r} {p.unit} is non-physical: it must be "
+                    f"Parameter {p.name!r} = {float(col[bad][0])!r} {p.unit} is non-physical: it must be "
                     f"{'>' if p.strict else '>='} {p.minimum!r}."
                 )
             if check_bounds:
@@ -251,7 +251,7 @@ class ParameterSpace:
                 out = (col < p.lower - tol) | (col > p.upper + tol)
                 if np.any(out):
                     raise ParameterError(
-                        f"Parameter {p.name!r} = {col[out][0]!r} {p.unit} lies outside its bounds "
+                        f"Parameter {p.name!r} = {float(col[out][0])!r} {p.unit} lies outside its bounds "
                         f"[{p.lower!r}, {p.upper!r}]; clip it, or widen the bounds "
                         "(ParameterSpace.t6(bounds=...)), or pass check_bounds=False."
                     )
@@ -277,7 +277,7 @@ class ParameterSpace:
             raise ParameterError("u contains NaN or infinite values; unit-cube coordinates must be finite.")
         if np.any(arr < -1e-12) or np.any(arr > 1 + 1e-12):
             raise ParameterError(
-                f"u must lie in the unit cube [0, 1]^{self.dim}, got values in [{arr.min()!r}, {arr.max()!r}]; "
+                f"u must lie in the unit cube [0, 1]^{self.dim}, got values in [{float(arr.min())!r}, {float(arr.max())!r}]; "
                 "clip with numpy.clip(u, 0, 1)."
             )
         return self.lower + np.clip(arr, 0.0, 1.0) * (self.upper - self.lower)

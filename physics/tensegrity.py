@@ -259,8 +259,9 @@ class T6Model:
         self.robot.setVelocities(dq)
 
     # ------------------------------------------------------------------ stepping
-    def _update_cables(self) -> None:
-        cable_wrenches(self._positions(), self._velocities(), self.half_lengths,
+    def _update_cables(self) -> float:
+        """Recompute cable forces; returns the largest squared node speed (NaN if not finite)."""
+        return cable_wrenches(self._positions(), self._velocities(), self.half_lengths,
                        self.end_a, self.end_b, self.rest_length, self.params["stiffnessActive"],
                        self.params["damping"], self._spin_coefficient,
                        self._forces, self._tension, self._length)
@@ -279,17 +280,24 @@ class T6Model:
         self.command(target_readings)
         p, gains, dt = self.params, self.options.motor, self.options.dt
         world, robot, forces = self.world, self.robot, self._forces
+        limit = self.options.max_speed ** 2
         for _ in range(n):
-            self._update_cables()
+            if not self._update_cables() <= limit:
+                self.check()   # raises PhysicsError before DART sees absurd coordinates
             robot.setForces(forces)
             world.step()
             motor_step(self.rest_length, self.motor_speed, self.target, self._tension,
                        p["maxTens"], p["targetVelocity"], p["motor_radius"], p["motor_friction"],
                        p["motor_inertia"], gains.kp, gains.kv, gains.min_rest_length, dt)
-        self._update_cables()
+        if not self._update_cables() <= limit:
+            self.check()
 
     def check(self) -> None:
-        """Raise :class:`PhysicsError` if the state is not finite or a node moves too fast."""
+        """Raise :class:`PhysicsError` if the state is not finite or a node moves too fast.
+
+        ``step`` runs this guard at every physics step (from the node speeds the cable kernel
+        computes anyway), so an exploding state never reaches the collision detector, which
+        aborts the process on huge coordinates."""
         v = self.node_velocities()
         if not (np.all(np.isfinite(self._positions())) and np.all(np.isfinite(v))):
             raise PhysicsError(f"Simulation diverged at t = {self.time:.3f} s: non-finite state. "

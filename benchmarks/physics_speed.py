@@ -1,0 +1,106 @@
+"""Physics speed: wall time per simulated second, one E(θ) evaluation, and a batch on 2 workers.
+
+Run: .venv/bin/python benchmarks/physics_speed.py [--repeats 5]
+Prints medians over repeats measured in this one run (the machine is shared and noisy: compare
+the ratios). Targets (issue 2): <= 60 ms per simulated second at dt = 1 ms on one core; batch of 8
+on 2 workers >= 1.7x faster than serial.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from physics import FlopController, ParameterSpace, TrajectoryError, settled_model, simulate  # noqa: E402
+
+
+def _median_time(fn, repeats: int) -> tuple[float, list[float]]:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times)), times
+
+
+def main(repeats: int = 5) -> dict:
+    figures = {}
+    # 1. one simulated second of a flop (motors moving, contacts), whole step vs DART's step alone
+    model = settled_model()
+    state = model.get_state()
+    readings = model.rest_length_readings()
+    target = readings.copy()
+    target[:4] *= 0.8
+    target[4:8] *= 1.2
+
+    def full_second():
+        model.set_state(state)
+        model.step(target, n=1000)
+
+    class _TimedWorld:
+        """Stands in for the DART world inside ``model.step`` and times its ``step`` calls."""
+
+        def __init__(self, world):
+            self.world, self.seconds = world, 0.0
+
+        def step(self):
+            start = time.perf_counter()
+            self.world.step()
+            self.seconds += time.perf_counter() - start
+
+        def __getattr__(self, name):
+            return getattr(self.world, name)
+
+    def engine_second():
+        timed = _TimedWorld(model.world)
+        model.world = timed
+        try:
+            full_second()
+        finally:
+            model.world = timed.world
+        engine_seconds.append(timed.seconds)
+
+    engine_seconds: list[float] = []
+
+    full_second()
+    figures["ms_per_sim_second"], _ = _median_time(full_second, repeats)
+    for _ in range(repeats):
+        engine_second()
+    figures["engine_ms_per_sim_second"] = float(np.median(engine_seconds))
+    figures["ms_per_sim_second"] *= 1e3
+    figures["engine_ms_per_sim_second"] *= 1e3
+
+    # 2. one E(θ) evaluation on the default data (3 s flop at 100 Hz, one-step error)
+    data = simulate(controller=FlopController(heading=0.0), duration=3.0)
+    space = ParameterSpace.t6()
+    E = TrajectoryError(data, n_workers=2)
+    thetas = space.sample(8, seed=0)
+    E(thetas[0])
+    figures["seconds_per_E"], _ = _median_time(lambda: E(thetas[1]), repeats)
+
+    # 3. a batch of 8 evaluations: serial in this process vs a local dask cluster of 2 workers
+    E.evaluate_batch(thetas[:2])          # start the cluster and warm the workers
+    serial, _ = _median_time(lambda: E.evaluate_batch(thetas, parallel=False), max(1, repeats // 2))
+    parallel, _ = _median_time(lambda: E.evaluate_batch(thetas), max(1, repeats // 2))
+    E.close()
+    figures["batch8_serial_s"] = serial
+    figures["batch8_2workers_s"] = parallel
+    figures["batch8_speedup"] = serial / parallel
+
+    print(f"cores: {os.cpu_count()}, repeats: {repeats} (medians)")
+    print(f"simulated second at dt = 1 ms (flop, contacts): {figures['ms_per_sim_second']:.1f} ms wall "
+          f"(target <= 60), of which DART's world.step: {figures['engine_ms_per_sim_second']:.1f} ms")
+    print(f"one E(θ), 3 s of data at 100 Hz, one-step: {figures['seconds_per_E']:.3f} s")
+    print(f"batch of 8 E(θ): serial {serial:.2f} s, 2 dask workers {parallel:.2f} s, "
+          f"speed-up {figures['batch8_speedup']:.2f}x (target >= 1.7)")
+    return figures
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    main(parser.parse_args().repeats)
