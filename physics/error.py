@@ -1,8 +1,12 @@
 """The trajectory error E(θ) of the paper's equation (1), on one or many trajectories.
 
-    E(θ) = Σ_trajectories Σ_i || x_{i+1} - f(x_i, u_i, θ) ||_2
+    E(θ) = Σ_trajectories Σ_i || x_{i+1} - f(x_i, u_i, θ) ||_2          (loss="norm", the paper's)
+    E(θ) = Σ_trajectories Σ_i || x_{i+1} - f(x_i, u_i, θ) ||_2^2        (loss="squared")
 
-with x the 36 node coordinates [m] (:mod:`physics.predictor`). ``horizon`` sets how far each
+with x the 36 node coordinates [m] (:mod:`physics.predictor`). The squared loss is a sum of
+squared residuals: with Gaussian observation noise of variance σ² per coordinate,
+exp(-E/(2σ²)) is the likelihood, which is what belief's ``likelihood`` posterior assumes
+(``n_observations`` gives the residual count for estimating σ²). ``horizon`` sets how far each
 prediction runs before it is compared:
 
 - ``1``: the paper's one-step error (every sample whose state can be rebuilt);
@@ -18,6 +22,7 @@ process per worker, started on first use and reused) or an existing scheduler's 
 """
 from __future__ import annotations
 
+import hashlib
 import time as _time
 from dataclasses import dataclass
 from typing import Mapping, Sequence
@@ -25,7 +30,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import xarray as xr
 
-from physics.errors import ParameterError, PhysicsError, TrajectoryFormatError
+from physics.errors import ParameterError, PhysicsError, TensegridError, TrajectoryFormatError
 from physics.parameters import ParameterSpace
 from physics.predictor import ObservedStates, actuator_states, predict
 from physics.tensegrity import ModelOptions, T6Model
@@ -46,6 +51,10 @@ class BatchResult:
 
     def __len__(self) -> int:
         return len(self.status)
+
+    def __iter__(self):
+        """Rows as (error, status) pairs."""
+        return iter(zip(self.errors.tolist(), self.status))
 
 
 def _warm_up() -> None:
@@ -69,11 +78,13 @@ class TrajectoryError:
     actuators: "reconstructed" (default: θ's motor model is run along the observed motion, so the
     motor parameters act on E), "measured" (rest lengths from the data's encoder readings: the
     motor parameters then barely act on a one-step error) or "auto" (measured if available); options: model options (dt must divide the sampling interval);
-    address: a dask scheduler address for batches (default: a local cluster).
+    address: a dask scheduler address for batches (default: a local cluster of ``n_workers``
+    single-threaded processes; ``n_workers=0`` evaluates batches serially in this process).
     """
 
     def __init__(self, trajectories: "xr.Dataset | Sequence[xr.Dataset]", *, space: ParameterSpace | None = None,
-                 horizon: "int | str" = 1, actuators: str = "reconstructed", options: ModelOptions | None = None,
+                 horizon: "int | str" = 1, actuators: str = "reconstructed", loss: str = "norm",
+                 options: ModelOptions | None = None,
                  address: str | None = None, n_workers: int = 2) -> None:
         if isinstance(trajectories, xr.Dataset):
             trajectories = [trajectories]
@@ -86,8 +97,12 @@ class TrajectoryError:
             raise ParameterError(f"horizon must be an integer >= 1 or 'rollout', got {horizon!r}.")
         if actuators not in ("auto", "measured", "reconstructed"):
             raise ParameterError(f"actuators must be 'auto', 'measured' or 'reconstructed', got {actuators!r}.")
-        self.horizon, self.actuators = horizon, actuators
+        if loss not in ("norm", "squared"):
+            raise ParameterError(f"loss must be 'norm' (Σ‖r‖, the paper's) or 'squared' (Σ‖r‖²), got {loss!r}.")
+        self.horizon, self.actuators, self.loss = horizon, actuators, loss
         self.options = options or ModelOptions()
+        if int(n_workers) < 0:
+            raise ParameterError(f"n_workers must be >= 0 (0 = serial), got {n_workers!r}.")
         self.address, self.n_workers = address, int(n_workers)
         self._observed = [ObservedStates(ds) for ds in self.trajectories]
         for k, obs in enumerate(self._observed):
@@ -102,6 +117,15 @@ class TrajectoryError:
                                             "estimate and controls); too many NaN.")
         self._client = None
         self._cluster = None
+
+    def fingerprint(self) -> dict:
+        """What identifies this objective in a journal: a hash of the data and the settings."""
+        digest = hashlib.sha256()
+        for obs in self._observed:
+            for arr in (obs.times, obs.nodes, obs.controls, obs.velocities):
+                digest.update(np.ascontiguousarray(arr).tobytes())
+        return {"kind": "T6 TrajectoryError", "data_sha256": digest.hexdigest(), "horizon": str(self.horizon),
+                "actuators": self.actuators, "loss": self.loss, "options": repr(self.options), "parameters": list(self.space.names)}
 
     # ------------------------------------------------------------------ windows
     def _windows(self, obs: ObservedStates) -> list[tuple[int, int]]:
@@ -122,35 +146,46 @@ class TrajectoryError:
         return out
 
     # ------------------------------------------------------------------ evaluation
-    def per_sample(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[np.ndarray]:
-        """Per-sample errors ||x_i - x̂_i||_2 (T,) for each trajectory, NaN where not compared."""
+    def predictions(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[xr.DataArray]:
+        """Predicted node positions f(x_i, u_i, θ) per trajectory, DataArrays (time, node, axis) in
+        the layout of the data's ``nodes``; NaN where nothing was predicted (the first samples,
+        holes). Raises :class:`PhysicsError` if a simulation diverges."""
         theta = self.space.as_array(theta, check_bounds=False)
         if theta.ndim != 1:
-            raise ParameterError(f"per_sample takes one θ of shape ({self.space.dim},), got {theta.shape}.")
+            raise ParameterError(f"predictions take one θ of shape ({self.space.dim},), got {theta.shape}.")
         model = T6Model(theta, space=self.space, options=self.options)
         out = []
-        for obs in self._observed:
-            err = np.full(len(obs.times), np.nan)
+        for ds, obs in zip(self.trajectories, self._observed):
+            pred = np.full_like(obs.nodes, np.nan)
             rest, speed = actuator_states(obs, model, self.actuators)
             controls_ok = np.isfinite(obs.controls).all(axis=1)
             for start, steps in self._windows(obs):
                 if not controls_ok[start:start + steps].all():
-                    steps = int(np.argmin(controls_ok[start:start + steps])) or 0
+                    steps = int(np.argmin(controls_ok[start:start + steps]))
                     if steps == 0:
                         continue
-                pred = predict(model, obs, start, steps, rest, speed)
-                seen = obs.nodes[start + 1:start + 1 + steps]
-                e = np.sqrt(((pred - seen) ** 2).sum(axis=(1, 2)))
-                err[start + 1:start + 1 + steps] = e
-            out.append(err)
+                pred[start + 1:start + 1 + steps] = predict(model, obs, start, steps, rest, speed)
+            out.append(xr.DataArray(pred, dims=("time", "node", "axis"), coords=ds["nodes"].coords,
+                                    name="predicted_nodes", attrs={"units": "m", "horizon": str(self.horizon)}))
         return out
+
+    def per_sample(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[np.ndarray]:
+        """Per-sample errors ||x_i - x̂_i||_2 (T,) for each trajectory, NaN where not compared."""
+        return [np.sqrt(((pred.values - obs.nodes) ** 2).sum(axis=(1, 2)))
+                for pred, obs in zip(self.predictions(theta), self._observed)]
 
     def __call__(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> "float | np.ndarray":
         """E(θ) for one θ (D,) -> float, or a batch (n x D) -> (n,) with NaN for diverged runs."""
         arr = self.space.as_array(theta, check_bounds=False)
         if arr.ndim == 2:
             return self.evaluate_batch(arr).errors
-        return float(sum(np.nansum(e) for e in self.per_sample(arr)))
+        power = 1 if self.loss == "norm" else 2
+        return float(sum(np.nansum(e**power) for e in self.per_sample(arr)))
+
+    @property
+    def n_observations(self) -> int:
+        """Number of compared coordinates (36 per compared sample), for noise estimates."""
+        return int(sum(36 * sum(steps for _, steps in self._windows(obs)) for obs in self._observed))
 
     # ------------------------------------------------------------------ batches (dask)
     def _get_client(self):
@@ -159,8 +194,15 @@ class TrajectoryError:
             if self.address is not None:
                 self._client = Client(self.address)
             else:
-                self._cluster = LocalCluster(n_workers=self.n_workers, threads_per_worker=1, processes=True,
-                                             dashboard_address=None, silence_logs=40)
+                try:
+                    self._cluster = LocalCluster(n_workers=self.n_workers, threads_per_worker=1, processes=True,
+                                                 dashboard_address=None, silence_logs=40)
+                except RuntimeError as exc:
+                    raise TensegridError(
+                        f"Could not start a local dask cluster ({exc}). Worker processes are spawned and import "
+                        "your script: put the script's code under `if __name__ == \"__main__\":`, or evaluate "
+                        "serially with TrajectoryError(..., n_workers=0)."
+                    ) from exc
                 self._client = Client(self._cluster)
             self._client.run(_warm_up)
         return self._client
@@ -168,11 +210,12 @@ class TrajectoryError:
     def evaluate_batch(self, thetas: np.ndarray, *, parallel: bool = True) -> BatchResult:
         """E at each row of ``thetas`` (n x D); failures are recorded, not raised.
 
-        parallel: run on dask.distributed (local cluster or ``address``); False runs in this process.
+        parallel: run on dask.distributed (local cluster or ``address``); False (or ``n_workers=0``
+        without an address) runs in this process.
         """
         thetas = self.space.as_array(thetas, check_bounds=False)
         thetas = np.atleast_2d(thetas)
-        if parallel:
+        if parallel and (self.n_workers > 0 or self.address is not None):
             client = self._get_client()
             remote_self = client.scatter(self, broadcast=True, hash=False)
             futures = client.map(_evaluate_remote, [remote_self] * len(thetas), list(thetas), pure=False)

@@ -14,7 +14,7 @@ import xarray as xr  # noqa: E402
 
 from physics.geometry import CABLE_NODES, ROD_NODES  # noqa: E402
 
-__all__ = ["draw_robot", "plot_trajectory"]
+__all__ = ["draw_robot", "plot_trajectory", "plot_observed_vs_predicted"]
 
 
 def draw_robot(ax, nodes: np.ndarray, *, color: str = "C0", alpha: float = 1.0, tension: np.ndarray | None = None) -> None:
@@ -65,6 +65,46 @@ def plot_trajectory(ds: xr.Dataset, path: "str | os.PathLike[str]", *, snapshots
     ax3.set_xlabel("time [s]")
     ax3.grid(alpha=0.3)
     fig.suptitle(title or "SUPERball T6 trajectory")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _nan_centre(nodes: np.ndarray) -> np.ndarray:
+    """Mean over nodes (T x 3), NaN where a sample has no node (no warning)."""
+    count = np.isfinite(nodes).sum(axis=1)
+    total = np.nansum(nodes, axis=1)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+def plot_observed_vs_predicted(ds: xr.Dataset, predictions: "dict[str, xr.DataArray]", path: "str | os.PathLike[str]", *,
+                               title: str | None = None) -> Path:
+    """Save a figure of the observed centre of mass (x, y, z) against predictions (label -> nodes
+    DataArray (time, node, axis), e.g. from ``TrajectoryError(ds, horizon="rollout").predictions(θ)``),
+    with the per-sample node error ||x_i - x̂_i|| [m] below."""
+    observed = ds["nodes"].transpose("time", "node", "axis").values
+    t = ds["time"].values
+    com = np.nanmean(observed, axis=1)
+    centre = {name: _nan_centre(pred.transpose("time", "node", "axis").values) for name, pred in predictions.items()}
+    fig, axes = plt.subplots(4, 1, figsize=(8, 8.5), sharex=True)
+    styles = ["--", ":", "-."]
+    for k, label in enumerate("xyz"):
+        axes[k].plot(t, com[:, k], color="k", lw=2.0, label="observed")
+        for j, (name, pred) in enumerate(predictions.items()):
+            axes[k].plot(t, centre[name][:, k], styles[j % 3], lw=1.5, label=name)
+        axes[k].set_ylabel(f"COM {label} [m]")
+        axes[k].grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    for j, (name, pred) in enumerate(predictions.items()):
+        err = np.sqrt(((pred.transpose("time", "node", "axis").values - observed) ** 2).sum(axis=(1, 2)))
+        axes[3].semilogy(t, np.maximum(err, 1e-9), styles[j % 3], label=name)
+    axes[3].set_ylabel("||x - x̂|| over nodes [m]")
+    axes[3].set_xlabel("time [s]")
+    axes[3].grid(alpha=0.3, which="both")
+    fig.suptitle(title or "observed vs predicted")
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -62,6 +62,16 @@ def test_missing_samples_are_skipped(space, flop_data):
     assert np.isfinite(E(space.nominal))
 
 
+def test_squared_loss_is_the_sum_of_squared_residuals(space, flop_data):
+    theta = space.replace(damping=190.0)
+    per = TrajectoryError(flop_data).per_sample(theta)[0]
+    squared = TrajectoryError(flop_data, loss="squared")
+    assert np.isclose(squared(theta), np.nansum(per**2))
+    assert squared.n_observations == 36 * int(np.isfinite(per).sum())
+    with pytest.raises(ParameterError, match="loss must be"):
+        TrajectoryError(flop_data, loss="l1")
+
+
 def test_many_trajectories_add_up(space, flop_data):
     one = TrajectoryError(flop_data)(space.nominal)
     two = TrajectoryError([flop_data, flop_data])(space.nominal)
@@ -87,6 +97,7 @@ def test_batch_on_a_local_dask_cluster_matches_serial(space, flop_data):
         serial = E.evaluate_batch(thetas, parallel=False)
         np.testing.assert_array_equal(parallel.errors, serial.errors)
         np.testing.assert_array_equal(E(thetas), serial.errors)
+        assert [e for e, _ in parallel] == serial.errors.tolist()
     assert parallel.status == ("ok",) * 4
 
 
