@@ -25,7 +25,7 @@ from physics.actuators import motor_step
 from physics.geometry import CABLE_NODES, N_CABLES
 from physics.tensegrity import T6Model
 
-__all__ = ["ObservedStates", "observed_states", "reconstruct_actuators", "predict"]
+__all__ = ["ObservedStates", "reconstruct_actuators", "actuator_states", "predict"]
 
 
 class ObservedStates:
@@ -56,10 +56,6 @@ class ObservedStates:
         if self.readings is not None:
             self.valid &= np.isfinite(self.readings).all(axis=1)
         self.finite = finite_x
-
-
-def observed_states(ds: xr.Dataset) -> ObservedStates:
-    return ObservedStates(ds)
 
 
 @njit(cache=True)
@@ -115,10 +111,10 @@ def reconstruct_actuators(obs: ObservedStates, model: T6Model) -> tuple[np.ndarr
     rates[:-1] = np.diff(lengths, axis=0) / obs.interval
     controls = obs.controls.copy()
     bad = ~np.isfinite(controls)
-    if bad.any():  # hold the last finite command
-        for i in range(1, len(controls)):
-            controls[i, bad[i]] = controls[i - 1, bad[i]]
-        controls[~np.isfinite(controls)] = (model.build_rest_length - model.encoder_offset)[np.where(~np.isfinite(controls))[1]]
+    if bad.any():  # hold the last finite command; before the first one, the build rest length
+        for i in range(len(controls)):
+            previous = controls[i - 1] if i else model.encoder_zero
+            controls[i, bad[i]] = previous[bad[i]]
     p, g = model.params, model.options.motor
     substeps = int(round(obs.interval / model.options.dt))
     return _reconstruct(lengths, rates, controls, model.encoder_offset, model.build_rest_length, substeps,

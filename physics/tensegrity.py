@@ -25,7 +25,7 @@ from ``drop_height`` and settled with the motors holding their build rest length
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import dartpy as dart
@@ -372,7 +372,3 @@ class T6Model:
         elastic = cable_energy(self._length, self.rest_length, self.params["stiffnessActive"])
         return {"kinetic": kinetic, "gravity": gravity, "elastic": elastic,
                 "total": kinetic + gravity + elastic}
-
-    def with_options(self, **changes) -> "T6Model":
-        """A new model at the same θ with some options changed."""
-        return T6Model(self.theta, space=self.space, options=replace(self.options, **changes))

@@ -54,11 +54,13 @@ def test_horizons_and_actuator_sources_agree_at_the_truth(space, flop_data):
 def test_missing_samples_are_skipped(space, flop_data):
     holey = flop_data.copy(deep=True)
     holey["nodes"][100:103] = np.nan
+    holey["controls"][200:202] = np.nan
     E = TrajectoryError(holey.drop_vars("velocities"))
     per = E.per_sample(space.nominal)[0]
     assert np.isnan(per[100:105]).all()           # the holes, and predictions from states that need them
     assert np.isfinite(per[105])                  # from x_104, velocity by first-order difference
     assert np.isfinite(per[110:200]).all()
+    assert np.isnan(per[201:203]).all()           # no prediction without the command
     assert np.isfinite(E(space.nominal))
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from physics import (
-    CABLE_NODES, FlopController, HoldController, ModelOptions, MotorGains, ParameterError, ParameterSpace,
+    CABLE_NODES, ControllerError, FlopController, ReplayController, HoldController, ModelOptions, MotorGains, ParameterError, ParameterSpace,
     PhysicsError, T6Model, settled_model, simulate,
 )
 
@@ -221,9 +221,21 @@ def test_model_and_simulate_validation():
         simulate(duration=-1.0)
     with pytest.raises(PhysicsError, match="24 finite target"):
         T6Model().step(np.ones(3))
+    with pytest.raises(ControllerError, match="change must be"):
+        FlopController(change=0.9)
+    with pytest.raises(ControllerError, match="start < stop <= period"):
+        FlopController(start=2.0, stop=1.0)
     with pytest.raises(ParameterError, match="T6 parameters"):
         from physics import Parameter
         T6Model(space=ParameterSpace((Parameter("m", "kg", 1.0, 0.5, 2.0),)))
+
+
+def test_replaying_recorded_controls_reproduces_the_trajectory(flop_data):
+    """The flop controller's commands, replayed open loop at the same θ, give the same motion."""
+    replay = simulate(controller=ReplayController(flop_data.time.values, flop_data.controls.values), duration=3.0)
+    np.testing.assert_array_equal(replay.nodes.values, flop_data.nodes.values)
+    with pytest.raises(ControllerError, match="shape"):
+        ReplayController(flop_data.time.values, flop_data.controls.values[:, :3])
 
 
 def test_hold_controller_keeps_rest_lengths():
