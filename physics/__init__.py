@@ -17,6 +17,7 @@ from physics.trajectory import load_trajectory, make_trajectory, save_trajectory
 from physics.simulate import settled_model, simulate
 from physics.predictor import ObservedStates, predict, reconstruct_actuators
 from physics.error import BatchResult, TrajectoryError
+from physics.push import PushError, generate_push_data, push_space, simulate_push
 
 __all__ = [
     "TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError", "ControllerError",
@@ -28,4 +29,5 @@ __all__ = [
     "simulate", "settled_model",
     "ObservedStates", "predict", "reconstruct_actuators",
     "TrajectoryError", "BatchResult",
+    "PushError", "generate_push_data", "push_space", "simulate_push",
 ]

@@ -1,0 +1,156 @@
+"""``tensegrid identify``: the command-line layer over :func:`belief.identify`.
+
+::
+
+    tensegrid identify DATA.nc --method {random,bo,rembo} --budget N --out DIR
+    tensegrid identify --toy push --method bo --budget 30 --out DIR
+
+Methods: ``random`` = random search in the full space (Identity decoder, Sobol candidates),
+``bo`` = BO in the full space (same candidates; a regular grid when D <= 4), ``rembo`` = BO on a
+regular grid over a REMBO embedding of dimension ``--dim``. Writes ``DIR/result.nc`` (see
+``IdentificationResult.save``), ``summary.txt`` and ``marginals.csv``, ``history.csv``,
+``error_vs_evaluations.png``, ``posterior_marginals.png`` (and ``posterior_2d.png`` for 2-D
+grids, ``observed_vs_predicted.png`` with rollouts at the nominal, best and posterior-mean θ for
+trajectory data), and journals to ``DIR/journal.sqlite`` so an interrupted run resumes when re-run.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Any
+
+__all__ = ["register_identify", "run_identify"]
+
+
+def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
+    """Add the ``identify`` sub-command to a ``tensegrid`` argparse sub-parser collection."""
+    p = subparsers.add_parser(
+        "identify", help="identify physical parameters from a trajectory (Bayesian optimization, posterior P)",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("data", nargs="?", help="observed trajectory (netCDF, docs/data-format.md)")
+    p.add_argument("--toy", choices=["push"], help="use the 1-D push toy instead of data (no physics engine)")
+    p.add_argument("--method", choices=["random", "bo", "rembo"], default="rembo")
+    p.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
+    p.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--dim", type=int, default=5, help="REMBO latent dimension (default 5, capped at D)")
+    p.add_argument("--points-per-dim", type=int, default=11, help="grid nodes per latent axis (default 11)")
+    p.add_argument("--candidates", type=int, default=20000, help="Sobol candidates for full-space methods, D > 4")
+    p.add_argument("--q", type=int, default=1, help="evaluations per batch (parallel)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="parallel evaluations of a batch (T6: dask worker processes; 1 = serial)")
+    p.add_argument("--posterior", choices=["likelihood", "minimizer"], default="likelihood")
+    p.add_argument("--loss", choices=["squared", "norm"], default="squared",
+                   help="T6 error: sum of squared residuals (default; what the likelihood posterior assumes) or of norms")
+    p.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
+    p.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.set_defaults(func=run_identify)
+
+
+def _push_objective(seed: int) -> tuple[Any, Any]:
+    import numpy as np
+
+    from physics.push import PushError, generate_push_data, push_space
+
+    space = push_space()
+    truth = np.array([1.0, 0.4])
+    impulses, observed = generate_push_data(truth, n=8, noise_std=0.05, seed=seed)
+    return PushError(impulses, observed, space=space, noise_std=0.05), truth
+
+
+def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str) -> None:
+    """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ."""
+    from physics.error import TrajectoryError
+    from physics.errors import PhysicsError
+    from physics.plotting import plot_observed_vs_predicted
+
+    thetas = {"nominal": space.nominal, "best": result.best_theta.values,
+              "posterior mean": result.marginals["mean"].values}
+    preds = {}
+    with TrajectoryError([dataset], horizon="rollout", n_workers=0) as roll:
+        for name, th in thetas.items():
+            try:
+                preds[name] = roll.predictions(th)[0]
+            except PhysicsError as exc:  # a rollout may diverge; say so and draw the others
+                print(f"tensegrid identify: rollout at the {name} theta diverged ({exc}); not drawn", file=sys.stderr)
+    if preds:
+        plot_observed_vs_predicted(dataset, preds, path, title="observed vs rollout predictions")
+
+
+def run_identify(args: argparse.Namespace) -> int:
+    """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
+    import numpy as np
+
+    from belief.grid import Grid, SobolCandidates
+    from belief.identify import identify
+    from belief.plots import plot_error_trace, plot_marginals, plot_posterior_2d
+    from embeddings import REMBO, Identity
+    from physics.errors import TensegridError
+
+    if (args.data is None) == (args.toy is None):
+        print("tensegrid identify: give either DATA.nc or --toy push (exactly one).", file=sys.stderr)
+        return 2
+    truth = None
+    dataset = None
+    try:
+        if args.toy == "push":
+            objective, truth = _push_objective(args.seed)
+        else:
+            from physics.error import TrajectoryError
+            from physics.trajectory import load_trajectory
+
+            dataset = load_trajectory(args.data)
+            objective = TrajectoryError([dataset], horizon=1, loss=args.loss,
+                                        n_workers=args.workers if args.workers > 1 else 0)
+        space = objective.space
+        D = space.dim
+        if args.method == "rembo":
+            decoder = REMBO(space, dim=min(args.dim, D), seed=args.seed)
+            grid: Any = Grid.for_decoder(decoder, points_per_dim=args.points_per_dim)
+        else:
+            decoder = Identity(space)
+            grid = (Grid.for_decoder(decoder, points_per_dim=args.points_per_dim) if D <= 4
+                    else SobolCandidates.for_decoder(decoder, n=args.candidates, seed=args.seed))
+        os.makedirs(args.out, exist_ok=True)
+        journal = None if (args.journal or "").lower() == "none" else (args.journal or os.path.join(args.out, "journal.sqlite"))
+        result = identify(
+            objective, decoder, grid, budget=args.budget, time_budget=args.time_budget, seed=args.seed,
+            journal=journal, method="random" if args.method == "random" else "bo", q=args.q, workers=args.workers,
+            posterior=args.posterior, noise_var=args.noise_var, progress=not args.no_progress,
+        )
+    except TensegridError as exc:
+        print(f"tensegrid identify: {exc}", file=sys.stderr)
+        return 2
+    finally:
+        close = getattr(locals().get("objective"), "close", None)
+        if callable(close):
+            close()
+    out = args.out
+    result.save(os.path.join(out, "result.nc"))
+    with open(os.path.join(out, "summary.txt"), "w") as fh:
+        fh.write(result.summary() + "\n")
+    result.marginals.to_dataframe().to_csv(os.path.join(out, "marginals.csv"))
+    h = result.history
+    hist_tab = {"evaluation": h["evaluation"].values, "error": h["error"].values, "seconds": h["seconds"].values,
+                "status": h["status"].values}
+    for j, name in enumerate(space.names):
+        hist_tab[name] = h["theta"].values[:, j]
+    import pandas as pd
+
+    pd.DataFrame(hist_tab).to_csv(os.path.join(out, "history.csv"), index=False)
+    plot_error_trace(result, os.path.join(out, "error_vs_evaluations.png"), label=f"best so far ({args.method})")
+    theta_cells = decoder.decode(np.asarray(grid.points))
+    plot_marginals(result.posterior, theta_cells, space, os.path.join(out, "posterior_marginals.png"),
+                   marginals=result.marginals, truth=truth)
+    if result.posterior.ndim == 2 and result.posterior.dims == ("z0", "z1"):
+        plot_posterior_2d(result.posterior, os.path.join(out, "posterior_2d.png"), decoder=decoder,
+                          evaluated=h["z"].values, truth=truth)
+    if dataset is not None:
+        _plot_rollouts(dataset, space, result, os.path.join(out, "observed_vs_predicted.png"))
+    print(result.summary())
+    print(f"wrote {out}/result.nc, summary.txt, marginals.csv, history.csv and figures")
+    return 0

@@ -1,0 +1,146 @@
+"""SQLite journal of an identification run (stdlib ``sqlite3``).
+
+Every evaluation (batch, cell, z, θ, E, seconds, status, message) is committed (``synchronous=FULL``)
+before the next one starts, so a run killed at any point loses at most the evaluation in flight.
+The journal also stores the problem's *fingerprint* (parameter space, decoder, grid, seed, method,
+batch size, initial design size, surrogate options, objective fingerprint when the objective has
+one). Opening a journal written for another problem raises :class:`JournalError` naming the keys
+that differ; budgets are not part of the fingerprint, so a finished run can be extended.
+
+Resuming is exact because ``belief.identify`` chooses every batch as a deterministic function of the
+seed and of the history before that batch: it replays the journal, recomputes the unfinished
+batch (if any) and continues.
+
+Floats are stored as JSON text (``repr`` round-trips IEEE doubles exactly).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sqlite3
+from dataclasses import dataclass
+from typing import Any, Iterator
+
+from belief.errors import JournalError
+
+__all__ = ["Journal", "Record"]
+
+_SCHEMA_VERSION = 1
+
+
+@dataclass(frozen=True)
+class Record:
+    """One evaluation: ``z`` (d), ``theta`` (D), error E (NaN if failed), wall ``seconds``,
+    ``status`` ("ok" or "failed"), ``message`` (why it failed), ``batch`` and ``cell`` indices."""
+
+    batch: int
+    cell: int
+    z: tuple[float, ...]
+    theta: tuple[float, ...]
+    error: float
+    seconds: float
+    status: str
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        if self.status not in ("ok", "failed"):
+            raise JournalError(f"Record.status must be 'ok' or 'failed', got {self.status!r}.")
+
+
+def _canonical(obj: Any) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"))
+
+
+def _diff(a: Any, b: Any, prefix: str = "") -> list[str]:
+    if isinstance(a, dict) and isinstance(b, dict):
+        out: list[str] = []
+        for k in sorted(set(a) | set(b)):
+            out += _diff(a.get(k, "<missing>"), b.get(k, "<missing>"), f"{prefix}{k}.")
+        return out
+    return [] if _canonical(a) == _canonical(b) else [prefix.rstrip(".")]
+
+
+class Journal:
+    """Append-only evaluation log in an SQLite file at ``path`` for the problem ``fingerprint`` (JSON-able dict)."""
+
+    def __init__(self, path: "str | os.PathLike[str]", fingerprint: dict[str, Any]) -> None:
+        self.path = os.fspath(path)
+        self.fingerprint = json.loads(_canonical(fingerprint))
+        try:
+            self._con = sqlite3.connect(self.path, isolation_level=None)
+            self._con.execute("PRAGMA synchronous=FULL")
+            self._con.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+            self._con.execute(
+                "CREATE TABLE IF NOT EXISTS evaluations (idx INTEGER PRIMARY KEY, batch INTEGER NOT NULL, "
+                "cell INTEGER NOT NULL, z TEXT NOT NULL, theta TEXT NOT NULL, error REAL, "
+                "seconds REAL NOT NULL, status TEXT NOT NULL, message TEXT NOT NULL)"
+            )
+            row = self._con.execute("SELECT value FROM meta WHERE key='fingerprint'").fetchone()
+        except sqlite3.DatabaseError as exc:
+            raise JournalError(f"{self.path!r} is not a tensegrid journal (SQLite error: {exc}); pass another path.") from None
+        if row is None:
+            with self._transaction():
+                self._con.execute("INSERT INTO meta VALUES ('fingerprint', ?)", (_canonical(self.fingerprint),))
+                self._con.execute("INSERT INTO meta VALUES ('schema', ?)", (str(_SCHEMA_VERSION),))
+        else:
+            stored = json.loads(row[0])
+            if _canonical(stored) != _canonical(self.fingerprint):
+                keys = _diff(stored, self.fingerprint)
+                self._con.close()
+                raise JournalError(
+                    f"journal {self.path!r} was written by a different problem (differs in: {', '.join(keys)}); "
+                    "resume it with the same space, decoder, grid, seed, method and options, or use a new journal path."
+                )
+
+    def _transaction(self) -> "sqlite3.Connection":
+        class _Tx:
+            def __init__(s, con: sqlite3.Connection) -> None:
+                s.con = con
+
+            def __enter__(s) -> sqlite3.Connection:
+                s.con.execute("BEGIN IMMEDIATE")
+                return s.con
+
+            def __exit__(s, et: Any, ev: Any, tb: Any) -> None:
+                s.con.execute("COMMIT" if et is None else "ROLLBACK")
+
+        return _Tx(self._con)  # type: ignore[return-value]
+
+    def records(self) -> list[Record]:
+        """All committed evaluations in order."""
+        rows = self._con.execute(
+            "SELECT batch, cell, z, theta, error, seconds, status, message FROM evaluations ORDER BY idx"
+        ).fetchall()
+        return [
+            Record(int(b), int(c), tuple(json.loads(z)), tuple(json.loads(t)),
+                   float("nan") if e is None else float(e), float(s), str(st), str(msg))
+            for b, c, z, t, e, s, st, msg in rows
+        ]
+
+    def __iter__(self) -> Iterator[Record]:
+        return iter(self.records())
+
+    def __len__(self) -> int:
+        return int(self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+
+    def append(self, record: Record) -> None:
+        """Commit one evaluation (durable when this returns)."""
+        err = None if not math.isfinite(record.error) else float(record.error)
+        with self._transaction():
+            self._con.execute(
+                "INSERT INTO evaluations (batch, cell, z, theta, error, seconds, status, message) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                (record.batch, record.cell, json.dumps([float(v) for v in record.z]),
+                 json.dumps([float(v) for v in record.theta]), err, float(record.seconds),
+                 record.status, record.message),
+            )
+
+    def close(self) -> None:
+        self._con.close()
+
+    def __enter__(self) -> "Journal":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

@@ -1,0 +1,66 @@
+"""``tensegrid identify --toy push``: runs through argparse, writes result, tables and figures; usage errors."""
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from belief import IdentificationResult
+from belief.cli import register_identify
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="tensegrid")
+    register_identify(parser.add_subparsers(dest="command", required=True))
+    return parser
+
+
+@pytest.mark.parametrize("method", ["bo", "rembo", "random"])
+def test_identify_push_toy_writes_everything(tmp_path, method: str, capsys) -> None:
+    out = tmp_path / method
+    args = _parser().parse_args(["identify", "--toy", "push", "--method", method, "--budget", "10", "--out",
+                                 str(out), "--no-progress", "--points-per-dim", "15"])
+    assert args.func(args) == 0
+    for name in ("result.nc", "summary.txt", "marginals.csv", "history.csv", "error_vs_evaluations.png",
+                 "posterior_marginals.png", "journal.sqlite"):
+        assert (out / name).stat().st_size > 0, name
+    res = IdentificationResult.load(out / "result.nc")
+    assert res.n_evaluations == 10 and abs(float(res.posterior.sum()) - 1) < 1e-9
+    assert (out / "history.csv").read_text().count("\n") == 11
+    assert "best error" in capsys.readouterr().out
+    if method == "bo":
+        assert (out / "posterior_2d.png").exists()
+    # re-running resumes from the journal: nothing new to evaluate, same history
+    assert args.func(args) == 0
+    again = IdentificationResult.load(out / "result.nc")
+    assert (again.history["cell"].values == res.history["cell"].values).all()
+
+
+def test_usage_errors(tmp_path, capsys) -> None:
+    p = _parser()
+    args = p.parse_args(["identify", "--out", str(tmp_path)])
+    assert args.func(args) == 2
+    assert "exactly one" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--budget", "0", "--out", str(tmp_path), "--no-progress"])
+    assert args.func(args) == 2
+    assert "budget must be >= 1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        p.parse_args(["identify", "--toy", "push", "--method", "vae", "--out", str(tmp_path)])
+
+
+@pytest.mark.slow
+def test_identify_t6_trajectory_file(tmp_path) -> None:
+    """The DATA.nc path: a short simulated SUPERball trajectory, REMBO, a tiny budget."""
+    from physics import FlopController, ParameterSpace, save_trajectory, simulate
+
+    space = ParameterSpace.t6()
+    data = simulate(space.sample(1, seed=3)[0], controller=FlopController(heading=0.0), duration=0.5)
+    path = save_trajectory(data, tmp_path / "obs.nc")
+    out = tmp_path / "out"
+    args = _parser().parse_args(["identify", str(path), "--method", "rembo", "--dim", "3", "--points-per-dim", "5",
+                                 "--budget", "6", "--out", str(out), "--no-progress"])
+    assert args.func(args) == 0
+    res = IdentificationResult.load(out / "result.nc")
+    assert res.n_evaluations == 6 and res.marginals.sizes["parameter"] == 15
+    assert res.config["objective"]["kind"] == "T6 TrajectoryError"
+    assert (out / "posterior_marginals.png").exists() and (out / "observed_vs_predicted.png").exists()
