@@ -18,8 +18,13 @@ $(STAMP): $(BIN)/python pyproject.toml
 
 install: $(STAMP)
 
+# The main job end to end: a robot whose parameters differ from the nominal ones flops (the
+# "observed" data), then the identifier recovers a distribution over the 15 parameters.
+DEMO_THETA := rod_length=1.70 pretension=140 damping=210
 demo: $(STAMP)
-	$(BIN)/tensegrid simulate --out out/demo
+	$(BIN)/tensegrid simulate --out out/demo --theta $(DEMO_THETA)
+	$(BIN)/tensegrid identify out/demo/trajectory.nc --method bo --candidates 4096 --budget 40 \
+		--out out/demo/identify
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q --durations=15

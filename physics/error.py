@@ -117,6 +117,7 @@ class TrajectoryError:
                                             "estimate and controls); too many NaN.")
         self._client = None
         self._cluster = None
+        self._remote = None
 
     def fingerprint(self) -> dict:
         """What identifies this objective in a journal: a hash of the data and the settings."""
@@ -217,8 +218,9 @@ class TrajectoryError:
         thetas = np.atleast_2d(thetas)
         if parallel and (self.n_workers > 0 or self.address is not None):
             client = self._get_client()
-            remote_self = client.scatter(self, broadcast=True, hash=False)
-            futures = client.map(_evaluate_remote, [remote_self] * len(thetas), list(thetas), pure=False)
+            if self._remote is None:    # ship the data to the workers once, not per batch
+                self._remote = client.scatter(self, broadcast=True, hash=False)
+            futures = client.map(_evaluate_remote, [self._remote] * len(thetas), list(thetas), pure=False)
             rows = client.gather(futures)
         else:
             rows = [_evaluate_remote(self, th) for th in thetas]
@@ -231,7 +233,7 @@ class TrajectoryError:
             self._client.close()
         if self._cluster is not None:
             self._cluster.close()
-        self._client = self._cluster = None
+        self._client = self._cluster = self._remote = None
 
     def __enter__(self) -> "TrajectoryError":
         return self
@@ -241,7 +243,7 @@ class TrajectoryError:
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        state["_client"] = state["_cluster"] = None
+        state["_client"] = state["_cluster"] = state["_remote"] = None
         return state
 
     def __del__(self) -> None:  # pragma: no cover - best effort at interpreter exit
