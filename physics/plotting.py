@@ -17,6 +17,16 @@ from physics.geometry import CABLE_NODES, ROD_NODES  # noqa: E402
 __all__ = ["draw_robot", "plot_trajectory", "plot_observed_vs_predicted"]
 
 
+def _save(fig, path: "str | os.PathLike[str]") -> Path:
+    """Lay out, write (creating the folder) and close a figure; returns the path."""
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def draw_robot(ax, nodes: np.ndarray, *, color: str = "C0", alpha: float = 1.0, tension: np.ndarray | None = None) -> None:
     """Draw rods (thick) and cables (thin; red when taut above 1 N if ``tension`` is given) on a 3-D axis."""
     for a, b in CABLE_NODES:
@@ -65,12 +75,7 @@ def plot_trajectory(ds: xr.Dataset, path: "str | os.PathLike[str]", *, snapshots
     ax3.set_xlabel("time [s]")
     ax3.grid(alpha=0.3)
     fig.suptitle(title or "SUPERball T6 trajectory")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _nan_centre(nodes: np.ndarray) -> np.ndarray:
@@ -105,9 +110,4 @@ def plot_observed_vs_predicted(ds: xr.Dataset, predictions: "dict[str, xr.DataAr
     axes[3].set_xlabel("time [s]")
     axes[3].grid(alpha=0.3, which="both")
     fig.suptitle(title or "observed vs predicted")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
