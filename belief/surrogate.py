@@ -51,7 +51,9 @@ class SurrogateConfig:
     ``log_transform``: fit log(E - E_min + c) instead of E; ``log_offset``: c relative to the
     median excess error; ``max_iter``: L-BFGS iterations; ``jitter``/``max_jitter``: diagonal
     added to K (raised x10 on Cholesky failure); ``noise_init``: initial noise in standardized
-    units; ``chunk_size``: cells per prediction chunk; ``num_threads``: torch threads.
+    units; ``chunk_size``: cells per prediction chunk (2048 keeps the n x chunk cross-covariance
+    closer to cache; it was faster than 8192 in an interleaved comparison, with identical values);
+    ``num_threads``: torch threads.
     """
 
     log_transform: bool = True
@@ -60,7 +62,7 @@ class SurrogateConfig:
     jitter: float = 1e-8
     max_jitter: float = 1e-2
     noise_init: float = 1e-4
-    chunk_size: int = 8192
+    chunk_size: int = 2048
     num_threads: int = 1
 
     def __post_init__(self) -> None:
