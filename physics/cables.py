@@ -20,8 +20,8 @@ its spherical end caps could roll like a wheel for ever. A small axial damper
 the axis, on the end caps) and for rolling friction (NTRT: 0.01); its coefficient is a model
 option, not an identified parameter.
 
-The kernels are compiled with numba: a vectorised numpy version costs ~50 µs per step, more
-than the DART step itself (~20 µs); numba brings it to a few µs.
+The kernels are compiled with numba: a vectorised numpy version cost more per step than the
+DART step itself; benchmarks/physics_speed.py shows what the whole step costs now.
 """
 from __future__ import annotations
 

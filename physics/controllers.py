@@ -132,12 +132,13 @@ class FlopController:
                 best, direction = normal @ goal, normal
         planner = self._planner_model(model)
         steps = int(round(self.trial_duration / planner.options.dt))
+        planner.reset()
+        planner.set_nodes(nodes)
+        planner.rest_length = readings + planner.encoder_offset
+        start = planner.get_state()
 
         def trial(j: int, factor: float) -> float:
-            planner.reset()
-            planner.set_nodes(nodes)
-            planner.rest_length = readings + planner.encoder_offset
-            planner.motor_speed = np.zeros(N_CABLES)
+            planner.set_state(start)
             target = readings.copy()
             target[j] *= factor
             before = planner.com()[:2]

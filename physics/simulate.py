@@ -91,8 +91,7 @@ def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, control
         tension[i] = model.tensions()
         controls[i] = controller(t, model)
         if i < n - 1:
-            model.step(controls[i], n=substeps)
-            model.check()
+            model.step(controls[i], n=substeps)   # raises PhysicsError if it diverges
     if noise > 0:
         nodes = nodes + np.random.default_rng(seed).normal(0.0, noise, nodes.shape)
         velocities = None  # a noisy recording carries positions only (motion capture)

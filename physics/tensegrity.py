@@ -13,10 +13,10 @@ Built from any θ of :meth:`ParameterSpace.t6` (15 parameters, SI). What each pa
 
 The rods are six FreeJoint bodies of one Skeleton (origin = centre of mass, local z = rod axis);
 one Skeleton keeps the Python side to one get/set call per step (six Skeletons made contacts
-cheaper inside DART but cost more in calls: measured 60 vs 39 µs per step). A sphere of radius ``radius`` at
+cheaper inside DART but cost more in Python calls, and were slower overall). A sphere of radius ``radius`` at
 each node gives contact with a static ground box (ODE collision detector; FCL sinks cylinders).
-Rods do not collide with each other (DART's self-collision check is off: it cost ~30 µs per
-step); in the motions this model is for, caps of different rods stay a cable length apart. The middle of a rod has no collision shape: with the end radius
+Rods do not collide with each other (DART's self-collision check is off: it made each step
+markedly slower); in the motions this model is for, caps of different rods stay a cable length apart. The middle of a rod has no collision shape: with the end radius
 larger than the middle radius, a rod lying on the ground touches it with its caps. Deactivation
 (sleeping) is off: it freezes resting bodies.
 
@@ -261,7 +261,7 @@ class T6Model:
     # ------------------------------------------------------------------ stepping
     def _update_cables(self) -> float:
         """Recompute cable forces; returns the largest squared node speed (NaN if not finite)."""
-        return cable_wrenches(self._positions(), self._velocities(), self.half_lengths,
+        return cable_wrenches(self.robot.getPositions(), self.robot.getVelocities(), self.half_lengths,
                        self.end_a, self.end_b, self.rest_length, self.params["stiffnessActive"],
                        self.params["damping"], self._spin_coefficient,
                        self._forces, self._tension, self._length)
@@ -278,7 +278,9 @@ class T6Model:
     def step(self, target_readings: np.ndarray | None = None, n: int = 1) -> None:
         """Advance ``n`` physics steps of ``dt`` with the given motor targets (encoder metres)."""
         self.command(target_readings)
-        p, gains, dt = self.params, self.options.motor, self.options.dt
+        p, gains = self.params, self.options.motor
+        motor = (p["maxTens"], p["targetVelocity"], p["motor_radius"], p["motor_friction"], p["motor_inertia"],
+                 gains.kp, gains.kv, gains.min_rest_length, self.options.dt)
         world, robot, forces = self.world, self.robot, self._forces
         limit = self.options.max_speed ** 2
         for _ in range(n):
@@ -286,9 +288,7 @@ class T6Model:
                 self.check()   # raises PhysicsError before DART sees absurd coordinates
             robot.setForces(forces)
             world.step()
-            motor_step(self.rest_length, self.motor_speed, self.target, self._tension,
-                       p["maxTens"], p["targetVelocity"], p["motor_radius"], p["motor_friction"],
-                       p["motor_inertia"], gains.kp, gains.kv, gains.min_rest_length, dt)
+            motor_step(self.rest_length, self.motor_speed, self.target, self._tension, *motor)
         if not self._update_cables() <= limit:
             self.check()
 
@@ -309,12 +309,7 @@ class T6Model:
 
     def settle(self, duration: float = 2.0) -> None:
         """Simulate ``duration`` seconds holding the current targets (drop and come to rest)."""
-        steps = int(round(duration / self.options.dt))
-        chunk = max(1, int(round(0.1 / self.options.dt)))
-        while steps > 0:
-            self.step(None, n=min(chunk, steps))
-            steps -= chunk
-            self.check()
+        self.step(None, n=int(round(duration / self.options.dt)))
 
     # ------------------------------------------------------------------ state
     @property

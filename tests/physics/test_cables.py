@@ -46,7 +46,7 @@ def test_cable_forces_are_internal(q, dq, rest):
 
 
 def test_all_slack_gives_no_force():
-    model = T6Model(options=T6Model().options)
+    model = T6Model()
     q, dq = model._positions(), model._velocities()
     f, tension, _ = _wrench(q, dq + 1.0, np.full(24, 5.0))
     assert np.all(f == 0.0) and np.all(tension == 0.0)
