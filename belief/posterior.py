@@ -108,6 +108,20 @@ def log_likelihood(mean: np.ndarray, var: np.ndarray, *, noise_var: float, shift
     """log E_f[exp(-E / (2 sigma^2))] per cell, from the GP of t (``shift`` None: t = E; else t = log(E - shift)).
 
     ``mean``, ``var``: shape ``n`` in t units -> shape ``n``. See the module docstring.
+
+    Log transform: Gauss-Hermite over f with nodes f_k = m + sqrt(2) s x_k (increasing in k) and
+    weights w_k / sqrt(pi); with a = 1 / (2 sigma^2), E_k = max(exp(f_k), -shift) + shift and
+    G_k = a (E_k - shift) (computed as exp(f_k + log a), so no a * huge product overflows)::
+
+        log sum_k (w_k / sqrt(pi)) exp(-a E_k)
+          = log(w_max / sqrt(pi)) - a shift - G_0 + log sum_k (w_k / w_max) exp(-(G_k - G_0))
+
+    Every exponent is <= 0 (G_k >= G_0) and the k = argmax w term is >= w_min / w_max ~ 1e-45, so
+    nothing overflows or underflows to 0 (same value as a max-shifted logsumexp to ~1e-15 relative).
+    f is capped at min(700, 709 - log a) so that G stays finite (where a E would overflow, the
+    result is a huge finite negative number instead of -inf). Nodes along the first axis
+    (32 x chunk arrays, reductions over contiguous rows), one reused buffer: ~5x faster than
+    ``scipy.special.logsumexp`` over chunk x 32 arrays.
     """
     m = np.asarray(mean, dtype=float)
     s = np.sqrt(np.maximum(np.asarray(var, dtype=float), 1e-300))
@@ -115,14 +129,32 @@ def log_likelihood(mean: np.ndarray, var: np.ndarray, *, noise_var: float, shift
     if shift is None:
         term = -a * m + 0.5 * a**2 * s**2 + log_ndtr((m - a * s**2) / s)
         return np.logaddexp(log_ndtr(-m / s), term)
-    # Gauss-Hermite: f_k = m + sqrt(2) s x_k, weights w_k / sqrt(pi)
+    chunk = 4096
+    sx = (np.sqrt(2.0) * _GH_X)[:, None]
+    kmax = int(np.argmax(_GH_W))
+    wr = (_GH_W / _GH_W[kmax])[:, None]
+    loga = np.log(a)
+    cap = min(700.0 + loga, 709.0)          # f <= min(700, 709 - log a): a exp(f) stays finite
+    floor = -a * shift if shift < 0 else None
     out = np.empty_like(m)
-    logw = np.log(_GH_W) - 0.5 * np.log(np.pi)
-    for st in range(0, m.size, 65536):
-        f = m[st:st + 65536, None] + np.sqrt(2.0) * s[st:st + 65536, None] * _GH_X[None, :]
-        E = np.maximum(np.exp(np.minimum(f, 700.0)) + shift, 0.0)
-        out[st:st + 65536] = logsumexp(logw[None, :] - a * E, axis=1)
-    return out
+    buf = np.empty((_GH_X.size, min(chunk, m.size)))
+    for st in range(0, m.size, chunk):
+        mc = m[st:st + chunk] + loga
+        sc = s[st:st + chunk]
+        G = buf[:, :mc.size]
+        np.multiply(sx, sc, out=G)
+        G += mc                             # f_k + log a
+        if not np.all(mc + sx[-1] * sc <= cap):
+            np.minimum(G, cap, out=G)
+        np.exp(G, out=G)                    # a exp(f_k)
+        if floor is not None:
+            np.maximum(G, floor, out=G)     # G_k = a (E_k - shift)
+        g0 = G[0].copy()
+        np.subtract(g0, G, out=G)           # -(G_k - G_0) <= 0
+        np.exp(G, out=G)
+        G *= wr
+        out[st:st + chunk] = np.log(G.sum(axis=0)) - g0
+    return out + (np.log(_GH_W[kmax]) - 0.5 * np.log(np.pi) - a * shift)
 
 
 def _normalize_log(logp: np.ndarray, failed: np.ndarray | None) -> np.ndarray:

@@ -23,6 +23,12 @@ jitter is multiplied by 10 up to ``max_jitter``. All torch work runs on ``num_th
 
 ``c`` (log offset) = ``log_offset * median(E - E_min)`` (floored at 1e-12 relative): it keeps the
 transform finite at the best point and is scale-equivariant.
+
+Prediction (``predict``, the cost of the acquisition on large grids) factorizes K = L L^T once per
+fitted model and evaluates the n x cells cross-covariance in cache-sized chunks with one matrix
+product for the distances and one triangular solve; it equals pyro's ``GPRegression.forward`` to
+rounding, in float64 (float32 cross-covariances were tried: the variance near the data, a
+difference of two nearly equal numbers, lost up to 66 % relative).
 """
 from __future__ import annotations
 
@@ -51,9 +57,9 @@ class SurrogateConfig:
     ``log_transform``: fit log(E - E_min + c) instead of E; ``log_offset``: c relative to the
     median excess error; ``max_iter``: L-BFGS iterations; ``jitter``/``max_jitter``: diagonal
     added to K (raised x10 on Cholesky failure); ``noise_init``: initial noise in standardized
-    units; ``chunk_size``: cells per prediction chunk (2048 keeps the n x chunk cross-covariance
-    closer to cache; it was faster than 8192 in an interleaved comparison, with identical values);
-    ``num_threads``: torch threads.
+    units; ``chunk_size``: cells per prediction chunk (512 keeps the chunk x n work buffers of
+    :meth:`GPSurrogate.predict` in cache; at 11^5 cells and n = 200 it beat 256, 1024 and 2048 in
+    an interleaved comparison, values equal to rounding); ``num_threads``: torch threads.
     """
 
     log_transform: bool = True
@@ -62,7 +68,7 @@ class SurrogateConfig:
     jitter: float = 1e-8
     max_jitter: float = 1e-2
     noise_init: float = 1e-4
-    chunk_size: int = 2048
+    chunk_size: int = 512
     num_threads: int = 1
 
     def __post_init__(self) -> None:
@@ -98,9 +104,10 @@ _DT = torch.float64
 
 
 class _Matern52(gp.kernels.Matern52):
-    """pyro's Matern-5/2 kernel; without autograd (prediction) the cross-covariance is computed with
-    ``torch.cdist`` and in-place ops, about 1.5-2x faster on large grids, same values to ~1e-12:
-    k(r) = s^2 (1 + sqrt5 r + 5 r^2 / 3) exp(-sqrt5 r), r = ||(x - x') / l||."""
+    """pyro's Matern-5/2 kernel; without autograd (K(X, X) of :meth:`GPSurrogate.predict`,
+    :meth:`GPSurrogate.predict_joint`) the covariance is computed with ``torch.cdist`` and in-place
+    ops, same values to ~1e-12: k(r) = s^2 (1 + sqrt5 r + 5 r^2 / 3) exp(-sqrt5 r), r = ||(x - x') / l||.
+    The large query x data cross-covariance of ``predict`` uses :func:`_matern52_unit` instead."""
 
     def forward(self, X: torch.Tensor, Z: torch.Tensor | None = None, diag: bool = False) -> torch.Tensor:
         if diag or torch.is_grad_enabled():
@@ -110,6 +117,50 @@ class _Matern52(gp.kernels.Matern52):
         s5r = torch.cdist(self._slice_input(X) / ls, self._slice_input(Z) / ls,
                           compute_mode="donot_use_mm_for_euclid_dist").mul_(5.0**0.5)
         return (s5r.square() / 3.0 + s5r + 1.0).mul_(torch.exp(-s5r)).mul_(self.variance)
+
+
+def _augment(u: torch.Tensor, query: bool) -> torch.Tensor:
+    """Rows of ``u`` (``m x d``) extended so that one matrix product gives squared distances:
+    [u, |u|^2, 1] (query) times [-2 x, 1, |x|^2]^T (data) = |u|^2 + |x|^2 - 2 u.x = |u - x|^2."""
+    sq = (u * u).sum(1, keepdim=True)
+    one = torch.ones_like(sq)
+    return torch.cat([u, sq, one], 1) if query else torch.cat([-2.0 * u, one, sq], 1)
+
+
+def _matern52_unit(q_aug: torch.Tensor, x_aug_t: torch.Tensor, d2: torch.Tensor, s: torch.Tensor,
+                   e: torch.Tensor) -> torch.Tensor:
+    """Unit-variance Matern-5/2 cross-covariance ``k x n`` between augmented query rows ``q_aug``
+    (``k x (d+2)``) and data ``x_aug_t`` (``(d+2) x n``), both pre-scaled by sqrt5 / lengthscale, so
+    that d2 = 5 r^2 and k = (1 + sqrt(d2) + d2 / 3) exp(-sqrt(d2)). ``d2``, ``s``, ``e`` are ``k x n``
+    work buffers (reused across chunks: no allocation); the result is written into ``s``.
+    The expansion is clamped at 0; its rounding near r = 0 changes k by ~1e-16 (k is smooth in d2)."""
+    torch.mm(q_aug, x_aug_t, out=d2)
+    d2.clamp_(min=0.0)
+    torch.sqrt(d2, out=s).neg_()                       # -sqrt5 r
+    torch.exp(s, out=e)                                # exp(-sqrt5 r)
+    torch.add(s, d2, alpha=-1.0 / 3.0, out=d2)         # -(sqrt5 r + 5 r^2 / 3)
+    return torch.addcmul(e, d2, e, value=-1.0, out=s)  # e (1 + sqrt5 r + 5 r^2 / 3)
+
+
+@dataclass(frozen=True)
+class _PredictionCache:
+    """What :meth:`GPSurrogate.predict` reuses for every chunk of one fitted model (``n`` data, ``d`` dims).
+
+    ``model``, ``X``, ``y``: the GPRegression it was built from and its data (valid only while
+    ``gp_ is model`` and its data tensors are the same objects);
+    ``scale``: sqrt5 / lengthscale (``d``); ``x_aug_t``: augmented scaled data ``(d+2) x n``;
+    ``alpha``: s^2 K^-1 (y - mu(X)) (``n``); ``chol_t``: L^T / s^2 (``n x n``, upper), with
+    L L^T = K = k(X, X) + (noise + jitter) I as in ``GPRegression.forward``; ``outputscale``: s^2.
+    """
+
+    model: gp.models.GPRegression
+    X: torch.Tensor
+    y: torch.Tensor
+    scale: torch.Tensor
+    x_aug_t: torch.Tensor
+    alpha: torch.Tensor
+    chol_t: torch.Tensor
+    outputscale: float
 
 
 class GPSurrogate:
@@ -244,25 +295,79 @@ class GPSurrogate:
             return float(self.gp_.noise)
 
     # ------------------------------------------------------------------ prediction
+    def _prediction_cache(self) -> _PredictionCache:
+        """Cholesky factor and weights of the fitted model, computed once per ``gp_`` (not per chunk).
+
+        Same algebra as pyro's ``GPRegression.forward``: K = k(X, X) + (noise + jitter) I = L L^T,
+        alpha = K^-1 (y - mu(X)) (mu = the GP's mean function, zero here).
+        """
+        cache = getattr(self, "_pred_cache_", None)
+        if cache is not None and cache.model is self.gp_ and cache.X is self.gp_.X and cache.y is self.gp_.y:
+            return cache
+        model = self.gp_
+        model.set_mode("guide")
+        X = model.X
+        n = X.shape[0]
+        K = model.kernel(X).contiguous()
+        K.view(-1)[:: n + 1] += model.jitter + model.noise
+        L = torch.linalg.cholesky(K)
+        resid = (model.y - model.mean_function(X))[:, None]
+        alpha = torch.linalg.solve_triangular(L.T, torch.linalg.solve_triangular(L, resid, upper=False), upper=True)
+        s2 = float(model.kernel.variance)
+        scale = (5.0**0.5 / model.kernel.lengthscale).detach()
+        cache = _PredictionCache(
+            model=model,
+            X=X,
+            y=model.y,
+            scale=scale,
+            x_aug_t=_augment((X - 0.5) * scale, query=False).T.contiguous(),
+            alpha=(alpha[:, 0] * s2).contiguous(),
+            chol_t=(L.T / s2).contiguous(),
+            outputscale=s2,
+        )
+        self._pred_cache_ = cache
+        return cache
+
     def predict(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Posterior mean and variance of the latent f = t(E) at ``z`` (``m x d``): two arrays of shape ``m``.
 
         Noiseless predictive (the GP's noise term excluded), in t units (log units with the log
-        transform); computed in chunks of ``config.chunk_size`` cells.
+        transform). Equal to pyro's ``gp_(x, full_cov=False, noiseless=True)`` to rounding (~1e-13
+        relative, variance ~1e-14 of s^2; tested), but ~3x faster: L and alpha are computed once per
+        fitted model (:class:`_PredictionCache`), then per chunk of ``config.chunk_size`` query rows
+        x (``k x d``)::
+
+            k0   = k(x, X) / s^2                      k x n  (Matern-5/2 via one matmul, no allocation)
+            mean = k0 (s^2 alpha) + mu(x)             k
+            W    = k0 (L^T / s^2)^-1 = k(x, X) L^-T   k x n  (triangular solve)
+            var  = s^2 - rowsum(W^2)                  k,  clamped at 0
+
+        then mean * t_std + t_mean, var * t_std^2. Deterministic (no randomness, fixed thread count).
         """
         self._check_fitted()
         Zq = np.asarray(z, dtype=float)
         if Zq.ndim != 2 or Zq.shape[1] != self.dim:
             raise BeliefError(f"GPSurrogate.predict: z must have shape (m, {self.dim}), got {Zq.shape}.")
-        mean = np.empty(Zq.shape[0])
-        var = np.empty(Zq.shape[0])
-        cs = self.config.chunk_size
+        m = Zq.shape[0]
+        cs = max(1, min(self.config.chunk_size, m))
         with _torch_context(self.config.num_threads), torch.no_grad():
-            for s in range(0, Zq.shape[0], cs):
-                m, v = self.gp_(self._scale(Zq[s:s + cs]), full_cov=False, noiseless=True)
-                mean[s:s + cs] = m.numpy()
-                var[s:s + cs] = v.numpy()
-        return mean * self.t_std_ + self.t_mean_, np.maximum(var, 0.0) * self.t_std_**2
+            c = self._prediction_cache()
+            n = c.x_aug_t.shape[1]
+            Zs = self._scale(Zq)
+            q_aug = _augment((Zs - 0.5) * c.scale, query=True)
+            mean = torch.empty(m, dtype=_DT)
+            quad = torch.empty(m, dtype=_DT)
+            d2, sb, eb, wb = (torch.empty(cs, n, dtype=_DT) for _ in range(4))
+            for s in range(0, m, cs):
+                e = min(s + cs, m)
+                k = e - s
+                k0 = _matern52_unit(q_aug[s:e], c.x_aug_t, d2[:k], sb[:k], eb[:k])
+                torch.mv(k0, c.alpha, out=mean[s:e])
+                w = torch.linalg.solve_triangular(c.chol_t, k0, upper=True, left=False, out=wb[:k])
+                torch.sum(w.mul_(w), 1, out=quad[s:e])
+            mean += self.gp_.mean_function(Zs)
+            var = (c.outputscale - quad).clamp_(min=0.0)
+        return mean.numpy() * self.t_std_ + self.t_mean_, var.numpy() * self.t_std_**2
 
     def predict_joint(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint posterior of f = t(E) at ``z`` (``m x d``): mean ``m`` and covariance ``m x m`` (t units)."""
@@ -283,6 +388,7 @@ class GPSurrogate:
         Zx = np.atleast_2d(np.asarray(z, dtype=float))
         tx = np.atleast_1d(np.asarray(t, dtype=float))
         new = copy.copy(self)
+        new._pred_cache_ = None  # built for self.gp_; predict rebuilds it for the new model
         with _torch_context(self.config.num_threads), torch.no_grad():
             model = copy.deepcopy(self.gp_)
             X = torch.cat([model.X, self._scale(Zx)])

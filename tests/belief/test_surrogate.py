@@ -1,10 +1,13 @@
-"""GP surrogate: interpolation quality, determinism, exact invariance to data order, fantasize, validation."""
+"""GP surrogate: interpolation quality, determinism, exact invariance to data order, fast predict = pyro's
+GPRegression.forward, fantasize, validation."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from belief import BeliefError, GPSurrogate, SurrogateConfig
+from belief.surrogate import _torch_context
 
 BOUNDS = np.array([[0.0, 2.0], [-1.0, 1.0]])
 
@@ -53,6 +56,39 @@ def test_chunking_does_not_change_predictions() -> None:
     b = GPSurrogate(BOUNDS, config=SurrogateConfig(chunk_size=4096)).fit(z, e).predict(zt)
     np.testing.assert_allclose(a[0], b[0], rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(a[1], b[1], rtol=1e-9, atol=1e-14)
+
+
+def _pyro_predict(m: GPSurrogate, zq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Reference: pyro's own GPRegression.forward on all points at once, in t units."""
+    with _torch_context(1), torch.no_grad():
+        mu, v = m.gp_(m._scale(zq), full_cov=False, noiseless=True)
+    return mu.numpy() * m.t_std_ + m.t_mean_, np.maximum(v.numpy(), 0.0) * m.t_std_**2
+
+
+def _assert_same_prediction(m: GPSurrogate, zq: np.ndarray) -> None:
+    mean, var = m.predict(zq)
+    ref_mean, ref_var = _pyro_predict(m, zq)
+    scale_var = float(m.gp_.kernel.variance.detach()) * m.t_std_**2  # prior variance in t units
+    np.testing.assert_allclose(mean, ref_mean, rtol=1e-10, atol=1e-10 * np.abs(ref_mean).max())
+    np.testing.assert_allclose(var, ref_var, rtol=1e-8, atol=1e-10 * scale_var)
+
+
+@pytest.mark.parametrize("log_transform", [True, False])
+def test_fast_predict_equals_pyro_gpregression_forward(log_transform: bool) -> None:
+    rng = np.random.default_rng(11)
+    bounds = np.array([[0.0, 2.0], [-1.0, 1.0], [-3.0, 5.0]])
+    z = bounds[:, 0] + rng.random((40, 3)) * (bounds[:, 1] - bounds[:, 0])
+    e = np.sum(np.sin(2.0 * z), axis=1) ** 2 + 0.1 * z[:, 2] ** 2 + 0.05
+    m = GPSurrogate(bounds, config=SurrogateConfig(log_transform=log_transform, chunk_size=64)).fit(z, e)
+    # random cells (some beyond the box), the data themselves (variance ~ 0) and a point next to one
+    zq = np.vstack([bounds[:, 0] - 0.1 + rng.random((300, 3)) * (bounds[:, 1] - bounds[:, 0] + 0.2),
+                    z, z[:1] + 1e-9])
+    _assert_same_prediction(m, zq)
+    # the fantasized copy has its own factorization; the original keeps its own
+    f = m.fantasize(zq[:2], m.predict(zq[:2])[0])
+    _assert_same_prediction(f, zq)
+    _assert_same_prediction(m, zq)
+    assert m.predict(np.zeros((0, 3)))[0].shape == (0,)
 
 
 def test_joint_prediction_matches_marginal_and_is_psd() -> None:
