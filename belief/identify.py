@@ -25,7 +25,12 @@ away from them). Their cells get P = 0.
 Determinism: every batch is a function of the seed and the history before it (the GP fit starts
 from fixed values and runs single-threaded, ties break to the lowest cell index), so a journalled
 run that is killed and resumed ends with exactly the history (cells, z, θ, E, status) of an
-uninterrupted run (wall-clock ``seconds`` differ, and so can a ``time_budget`` stop).
+uninterrupted run (wall-clock ``seconds`` differ, and so can a ``time_budget`` stop). Each
+evaluation is journalled as soon as it finishes, also inside a parallel batch when
+``objective.evaluate_batch`` takes ``on_result`` (physics.TrajectoryError does): a kill mid-batch
+loses only the evaluations still running, and the resumed run evaluates just the batch's missing
+cells. The returned history is ordered by batch, then cell index, because a parallel batch
+finishes in any order.
 
 Time budget: counts the journalled seconds of replayed evaluations plus this session's wall time;
 it is checked before each evaluation.
@@ -36,6 +41,7 @@ a finite set of cells, which needs no continuous acquisition optimizer.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import inspect
 import math
 import os
 import time
@@ -191,34 +197,61 @@ def _call_one(objective: Callable[[np.ndarray], Any], theta: np.ndarray) -> tupl
     return err, "ok", "", dt
 
 
-def _batch_results(objective: Any, thetas: np.ndarray) -> list[tuple[float, str, str, float]]:
-    """Evaluate a batch with ``objective.evaluate_batch``: rows of (error, status) or floats; a result
-    object with ``seconds`` and ``messages`` arrays (physics.BatchResult) also gives per-row times and
-    reasons, otherwise the batch wall time is split evenly."""
+def _row_result(err: Any, status: str, seconds: float, message: str) -> tuple[float, str, str, float]:
+    """(error, status, message, seconds) of one batch row, failures as NaN with the reason."""
+    value = _as_error(err)
+    if status != "ok" or not math.isfinite(value):
+        return (float("nan"), "failed", f"evaluate_batch status {status!r}, error {value!r}"
+                + (f": {message}" if message else ""), float(seconds))
+    return value, "ok", "", float(seconds)
+
+
+def _accepts_on_result(fn: Callable[..., Any]) -> bool:
+    try:
+        return "on_result" in inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def _batch_results(objective: Any, thetas: np.ndarray,
+                   commit: Callable[[int, tuple[float, str, str, float]], None]) -> None:
+    """Evaluate a batch with ``objective.evaluate_batch`` and ``commit(k, (error, status, message, seconds))``
+    each row. If ``evaluate_batch`` takes ``on_result`` (physics.TrajectoryError does), rows are
+    committed as they finish (completion order), so a kill mid-batch loses only the running ones.
+    Otherwise rows are (error, status) pairs or floats, committed when the batch returns; a result
+    object with ``seconds`` and ``messages`` arrays (physics.BatchResult) gives per-row times and
+    reasons, else the batch wall time is split evenly."""
+    done: set[int] = set()
+
+    def stream(k: int, err: Any, status: str, seconds: float, message: str) -> None:
+        done.add(int(k))
+        commit(int(k), _row_result(err, status, seconds, message))
+
     t0 = time.perf_counter()
     try:
-        raw_obj = objective.evaluate_batch(thetas)
+        if _accepts_on_result(objective.evaluate_batch):
+            raw_obj = objective.evaluate_batch(thetas, on_result=stream)
+        else:
+            raw_obj = objective.evaluate_batch(thetas)
     except PhysicsError as exc:
         dt = (time.perf_counter() - t0) / len(thetas)
-        return [(float("nan"), "failed", f"{type(exc).__name__}: {exc}", dt)] * len(thetas)
+        for k in range(len(thetas)):
+            if k not in done:
+                commit(k, (float("nan"), "failed", f"{type(exc).__name__}: {exc}", dt))
+        return
     dt = (time.perf_counter() - t0) / len(thetas)
     raw = list(raw_obj)
     if len(raw) != len(thetas):
         raise ObjectiveError(f"objective.evaluate_batch returned {len(raw)} results for {len(thetas)} thetas.")
     seconds = getattr(raw_obj, "seconds", None)
     messages = getattr(raw_obj, "messages", None)
-    out = []
     for k, item in enumerate(raw):
+        if k in done:
+            continue
         status = item[1] if isinstance(item, (tuple, list)) and len(item) == 2 and isinstance(item[1], str) else "ok"
-        err = _as_error(item)
         sec = float(seconds[k]) if seconds is not None and len(seconds) == len(raw) else dt
-        if status != "ok" or not math.isfinite(err):
-            why = str(messages[k]) if messages is not None and len(messages) == len(raw) and messages[k] else ""
-            out.append((float("nan"), "failed", f"evaluate_batch status {status!r}, error {err!r}"
-                        + (f": {why}" if why else ""), sec))
-        else:
-            out.append((err, "ok", "", sec))
-    return out
+        why = str(messages[k]) if messages is not None and len(messages) == len(raw) and messages[k] else ""
+        commit(k, _row_result(item, status, sec, why))
 
 
 def identify(
@@ -351,12 +384,13 @@ def identify(
                 break
             hist = [r for r in records if r.batch < b]
             cells, model, pred = propose(b, hist, size)
-            if [r.cell for r in in_batch] != cells[:len(in_batch)]:
+            done_cells = {r.cell for r in in_batch}
+            if not done_cells <= set(cells):
                 raise JournalError(
                     f"journal {journal!r} diverges from the deterministic replay at batch {b}; it was written by "
                     "another version or options. Use a new journal path."
                 )
-            todo = cells[len(in_batch):]
+            todo = [c for c in cells if c not in done_cells]
             zs = points[todo]
             thetas = decoder.decode(zs)
             if callback is not None and model is not None and posterior is not None:
@@ -375,8 +409,7 @@ def identify(
                     bar.set_postfix(best=f"{min(oks):.4g}", refresh=False)
 
             if len(todo) > 1 and callable(getattr(objective, "evaluate_batch", None)):
-                for k, res in enumerate(_batch_results(objective, thetas)):
-                    commit(k, res)
+                _batch_results(objective, thetas, commit)
             elif len(todo) > 1 and workers > 1:
                 with cf.ThreadPoolExecutor(max_workers=int(workers)) as ex:
                     futs = [ex.submit(_call_one, objective, th) for th in thetas]
@@ -393,6 +426,8 @@ def identify(
                 break
             b += 1
         bar.close()
+        # canonical order: by batch, then cell (a parallel batch is journalled in completion order)
+        records.sort(key=lambda r: (r.batch, r.cell))
 
         ok = [r for r in records if r.status == "ok"]
         if not records:

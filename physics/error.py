@@ -25,7 +25,7 @@ from __future__ import annotations
 import hashlib
 import time as _time
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
@@ -208,22 +208,35 @@ class TrajectoryError:
             self._client.run(_warm_up)
         return self._client
 
-    def evaluate_batch(self, thetas: np.ndarray, *, parallel: bool = True) -> BatchResult:
+    def evaluate_batch(self, thetas: np.ndarray, *, parallel: bool = True,
+                       on_result: "Callable[[int, float, str, float, str], None] | None" = None) -> BatchResult:
         """E at each row of ``thetas`` (n x D); failures are recorded, not raised.
 
         parallel: run on dask.distributed (local cluster or ``address``); False (or ``n_workers=0``
-        without an address) runs in this process.
+        without an address) runs in this process. on_result(k, error, status, seconds, message):
+        called for each row k as soon as it is done (completion order), e.g. to journal it before
+        the rest of the batch returns; the BatchResult keeps the input order.
         """
         thetas = self.space.as_array(thetas, check_bounds=False)
         thetas = np.atleast_2d(thetas)
+        rows: list = [None] * len(thetas)
         if parallel and (self.n_workers > 0 or self.address is not None):
+            from distributed import as_completed
             client = self._get_client()
             if self._remote is None:    # ship the data to the workers once, not per batch
                 self._remote = client.scatter(self, broadcast=True, hash=False)
             futures = client.map(_evaluate_remote, [self._remote] * len(thetas), list(thetas), pure=False)
-            rows = client.gather(futures)
+            index = {f.key: k for k, f in enumerate(futures)}
+            for fut in as_completed(futures):
+                k = index[fut.key]
+                rows[k] = fut.result()
+                if on_result is not None:
+                    on_result(k, *rows[k])
         else:
-            rows = [_evaluate_remote(self, th) for th in thetas]
+            for k, th in enumerate(thetas):
+                rows[k] = _evaluate_remote(self, th)
+                if on_result is not None:
+                    on_result(k, *rows[k])
         return BatchResult(np.array([r[0] for r in rows]), tuple(r[1] for r in rows),
                            np.array([r[2] for r in rows]), tuple(r[3] for r in rows))
 

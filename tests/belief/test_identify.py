@@ -297,7 +297,7 @@ def test_batch_results_with_seconds_and_messages(push_problem) -> None:
     res = identify(Objective(), dec, Grid.for_decoder(dec, points_per_dim=21), budget=9, n_init=5, q=2, seed=0,
                    progress=False)
     h = res.history
-    np.testing.assert_array_equal(h["seconds"].values[:5], [1.0, 2.0, 3.0, 4.0, 5.0])
+    np.testing.assert_array_equal(np.sort(h["seconds"].values[:5]), [1.0, 2.0, 3.0, 4.0, 5.0])  # per-row times
     failed = h["status"].values == "failed"
     assert failed.any() and all("'diverged'" in m and "exploded" in m for m in h["message"].values[failed])
     with pytest.raises(ObjectiveError, match="returned 1 results for 5"):

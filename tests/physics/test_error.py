@@ -85,8 +85,11 @@ def test_divergence_raises_alone_and_is_recorded_in_a_batch(space, flop_data):
     theta = space.replace(stiffnessActive=1e7)  # explicit integration is unstable: ω dt = 2.6 > 2
     with pytest.raises(PhysicsError, match="diverged"):
         E(theta)
-    result = E.evaluate_batch(np.stack([space.nominal, theta]), parallel=False)
+    seen = []
+    result = E.evaluate_batch(np.stack([space.nominal, theta]), parallel=False,
+                              on_result=lambda k, e, st, sec, msg: seen.append((k, st)))
     assert result.status == ("ok", "diverged")
+    assert seen == [(0, "ok"), (1, "diverged")]
     assert np.isfinite(result.errors[0]) and np.isnan(result.errors[1])
     assert "diverged" in result.messages[1]
 
@@ -94,13 +97,17 @@ def test_divergence_raises_alone_and_is_recorded_in_a_batch(space, flop_data):
 @pytest.mark.slow
 def test_batch_on_a_local_dask_cluster_matches_serial(space, flop_data):
     thetas = space.sample(4, seed=3)
+    streamed = {}
     with TrajectoryError(flop_data.isel(time=slice(0, 120)), n_workers=2) as E:
-        parallel = E.evaluate_batch(thetas)
+        parallel = E.evaluate_batch(thetas, on_result=lambda k, e, st, sec, msg: streamed.setdefault(k, (e, st)))
         serial = E.evaluate_batch(thetas, parallel=False)
         np.testing.assert_array_equal(parallel.errors, serial.errors)
         np.testing.assert_array_equal(E(thetas), serial.errors)
         assert [e for e, _ in parallel] == serial.errors.tolist()
     assert parallel.status == ("ok",) * 4
+    # every row was handed over once as it finished, with the same values
+    assert sorted(streamed) == [0, 1, 2, 3]
+    assert [streamed[k] for k in range(4)] == list(parallel)
 
 
 @pytest.mark.slow
