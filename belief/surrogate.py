@@ -28,7 +28,7 @@ Prediction (``predict``, the cost of the acquisition on large grids) factorizes 
 fitted model and evaluates the n x cells cross-covariance in cache-sized chunks with one matrix
 product for the distances and one triangular solve; it equals pyro's ``GPRegression.forward`` to
 rounding, in float64 (float32 cross-covariances were tried: the variance near the data, a
-difference of two nearly equal numbers, lost up to 66 % relative).
+difference of two nearly equal numbers, lost most of its digits).
 """
 from __future__ import annotations
 
@@ -333,7 +333,7 @@ class GPSurrogate:
 
         Noiseless predictive (the GP's noise term excluded), in t units (log units with the log
         transform). Equal to pyro's ``gp_(x, full_cov=False, noiseless=True)`` to rounding (~1e-13
-        relative, variance ~1e-14 of s^2; tested), but ~3x faster: L and alpha are computed once per
+        relative, variance ~1e-14 of s^2; tested), but faster: L and alpha are computed once per
         fitted model (:class:`_PredictionCache`), then per chunk of ``config.chunk_size`` query rows
         x (``k x d``)::
 
