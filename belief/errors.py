@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from physics.errors import TensegridError
 
-__all__ = ["BeliefError", "GridError", "BudgetError", "ObjectiveError", "JournalError", "SurrogateError"]
+__all__ = ["BeliefError", "GridError", "BudgetError", "ObjectiveError", "JournalError", "SurrogateError",
+           "BudgetWarning"]
 
 
 class BeliefError(TensegridError, ValueError):
@@ -33,3 +34,7 @@ class JournalError(TensegridError, ValueError):
 
 class SurrogateError(TensegridError, RuntimeError):
     """The Gaussian-process surrogate could not be fitted (e.g. Cholesky failed at the largest jitter)."""
+
+
+class BudgetWarning(UserWarning):
+    """The evaluation budget is too small for the search dimension to map E; P is partial."""

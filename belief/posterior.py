@@ -19,10 +19,11 @@ GP expectation of it::
 - with the log transform, f = log(E - shift) ~ N(m, s^2), the expectation is taken by
   Gauss-Hermite quadrature (32 nodes) over f.
 
-sigma^2 is the objective's ``noise_var`` when known, else estimated from the data as the residual
-variance at the best fit: sigma^2 = E_min / max(K - d, 1), K = number of residuals
-(``objective.n_observations``, 1 if unknown), d = latent dimension. Cells whose simulation failed
-get P = 0 (no parameter that breaks the simulator explains the data).
+sigma^2 is given, or the objective's ``noise_var`` when it knows it, else set by a noise rule of
+:mod:`belief.noise` (``PosteriorConfig.noise_rule``): "ess" (default) tempers the independent-noise
+estimate by the effective number of residuals, which the residuals' autocorrelation in time and
+across coordinates gives; "iid" is E_min / max(K - d, 1). Cells whose simulation failed get P = 0
+(no parameter that breaks the simulator explains the data).
 
 ``minimizer``: P(z) = Pr[z = argmin E] under the GP. Exact joint samples (Cholesky of the joint
 posterior covariance) on the ``max_subset`` cells with the smallest lower confidence bound
@@ -41,6 +42,7 @@ import xarray as xr
 from scipy.special import log_ndtr, logsumexp
 
 from belief.errors import BeliefError
+from belief.noise import NOISE_RULES, iid_noise_var
 
 __all__ = [
     "PosteriorConfig",
@@ -61,13 +63,15 @@ class PosteriorConfig:
     """Options of the posterior (validated).
 
     ``mode``: "likelihood" or "minimizer"; ``noise_var``: sigma^2 in units of E (None = from the
-    objective or estimated); ``n_samples``/``max_subset``: minimizer-mode sampling;
+    objective or estimated by ``noise_rule``, "ess" or "iid", :mod:`belief.noise`);
+    ``n_samples``/``max_subset``: minimizer-mode sampling;
     ``level``: credible level of the marginal interval; ``identified_ratio``: a parameter is
     *identified* when its posterior std < identified_ratio x its prior std.
     """
 
     mode: Literal["likelihood", "minimizer"] = "likelihood"
     noise_var: float | None = None
+    noise_rule: str = "ess"
     n_samples: int = 2000
     max_subset: int = 1000
     level: float = 0.9
@@ -76,6 +80,8 @@ class PosteriorConfig:
     def __post_init__(self) -> None:
         if self.mode not in ("likelihood", "minimizer"):
             raise BeliefError(f"posterior mode must be 'likelihood' or 'minimizer', got {self.mode!r}.")
+        if self.noise_rule not in NOISE_RULES:
+            raise BeliefError(f"noise_rule must be one of {NOISE_RULES}, got {self.noise_rule!r}.")
         if self.noise_var is not None and not (np.isfinite(self.noise_var) and self.noise_var > 0):
             raise BeliefError(f"noise_var must be a positive number (units of E) or None, got {self.noise_var!r}.")
         if not isinstance(self.n_samples, int) or self.n_samples < 1:
@@ -89,19 +95,8 @@ class PosteriorConfig:
 
 
 def estimate_noise_var(errors: np.ndarray, *, n_observations: int = 1, dim: int = 0) -> float:
-    """sigma^2 = E_min / max(K - d, 1) (residual variance at the best fit), floored at 1e-12 x median(E)."""
-    e = np.asarray(errors, dtype=float)
-    e = e[np.isfinite(e)]
-    if e.size == 0:
-        raise BeliefError("cannot estimate the noise variance: no successful evaluation.")
-    if np.any(e < 0):
-        raise BeliefError(
-            "likelihood posterior needs non-negative errors (a sum of squared residuals); got "
-            f"min E = {e.min()!r}. Use posterior='minimizer' or make the objective non-negative."
-        )
-    sigma2 = float(e.min()) / max(int(n_observations) - int(dim), 1)
-    floor = 1e-12 * max(float(np.median(e)), 1e-300)
-    return max(sigma2, floor)
+    """sigma^2 = E_min / max(K - d, 1), the "iid" rule (:func:`belief.noise.iid_noise_var`)."""
+    return iid_noise_var(errors, n_observations=n_observations, dim=dim)
 
 
 def log_likelihood(mean: np.ndarray, var: np.ndarray, *, noise_var: float, shift: float | None) -> np.ndarray:

@@ -1,0 +1,160 @@
+"""Verdicts per parameter: identified, weakly identified or not identified, each with its reason.
+
+A narrow marginal is necessary but not sufficient. Under model error, or with a budget too small
+for the dimension, P can be narrow in the wrong place (the GP's lower tail on cells nobody
+evaluated, or a minimum of E that model error moved away from the truth). The verdict of
+parameter j therefore combines four pieces of evidence:
+
+1. **Narrowing**: ratio_j = std_j / prior_std_j of the marginal of P.
+   ratio >= ``weak_ratio`` -> not identified; ``identified_ratio`` <= ratio < ``weak_ratio`` ->
+   weakly identified.
+2. **Consistency between segments** (time windows, trajectories): each segment s has its own
+   posterior P_s (same evaluations, its own part of E). If two segments both narrow θ_j
+   (ratio < ``identified_ratio``) and their ``level`` credible intervals are disjoint, the best
+   value of θ_j moves with the data by more than its interval: model error, not information.
+   -> not identified. (Two independent 90 % intervals of a correct model are disjoint with
+   probability ~2 %.)
+3. **Verified mass**: the GP knows the log-likelihood ℓ = −E/(2σ²) of a cell to within
+   sd_ℓ ≈ |dℓ/dt| s (delta method on the GP's t = log(E − shift) or t = E, predictive sd s).
+   The verified mass is Σ P over cells with sd_ℓ <= ``max_loglik_sd`` nats. Below
+   ``min_verified_mass``, P rests on the GP's guesses -> at most weakly identified.
+4. **Evaluated support**: the best evaluated θ_j must lie inside the credible interval of θ_j,
+   otherwise P contradicts the evaluations -> at most weakly identified.
+
+Only a parameter that passes all four is *identified*. The budget rule of thumb for a GP in d
+dimensions, n >= 10 d evaluations (Loeppky, Sacks & Welch 2009), is reported as a warning with the
+numbers when it is not met.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+import xarray as xr
+
+from belief.errors import BeliefError
+
+__all__ = ["VERDICTS", "VerdictConfig", "loglik_sd", "verified_mass", "segment_conflicts", "decide",
+           "budget_warning"]
+
+VERDICTS = ("identified", "weakly identified", "not identified")
+
+
+@dataclass(frozen=True)
+class VerdictConfig:
+    """Thresholds of the verdict rules (module docstring), validated."""
+
+    identified_ratio: float = 0.5
+    weak_ratio: float = 0.8
+    max_loglik_sd: float = 1.0
+    min_verified_mass: float = 0.5
+    evaluations_per_dim: int = 10
+
+    def __post_init__(self) -> None:
+        if not (0 < self.identified_ratio <= self.weak_ratio <= 1):
+            raise BeliefError(f"VerdictConfig needs 0 < identified_ratio <= weak_ratio <= 1, got "
+                              f"{self.identified_ratio!r} and {self.weak_ratio!r}.")
+        if not (np.isfinite(self.max_loglik_sd) and self.max_loglik_sd > 0):
+            raise BeliefError(f"VerdictConfig.max_loglik_sd must be a positive number of nats, got {self.max_loglik_sd!r}.")
+        if not (0 <= self.min_verified_mass <= 1):
+            raise BeliefError(f"VerdictConfig.min_verified_mass must lie in [0, 1], got {self.min_verified_mass!r}.")
+        if not isinstance(self.evaluations_per_dim, int) or self.evaluations_per_dim < 0:
+            raise BeliefError(f"VerdictConfig.evaluations_per_dim must be an int >= 0, got {self.evaluations_per_dim!r}.")
+
+
+def loglik_sd(mean: np.ndarray, var: np.ndarray, *, shift: float | None, noise_var: float) -> np.ndarray:
+    """sd of ℓ = −E/(2σ²) per cell from the GP's predictive (mean, var) of t (shape ``n``).
+
+    t = log(E − shift): dℓ/dt = −exp(t)/(2σ²), so sd_ℓ ≈ exp(m) s/(2σ²); t = E (``shift`` None):
+    sd_ℓ = s/(2σ²). Computed in logs so large exponents give inf, not overflow warnings.
+    """
+    s = np.sqrt(np.maximum(np.asarray(var, dtype=float), 0.0))
+    log2s2 = np.log(2.0 * noise_var)
+    with np.errstate(divide="ignore", over="ignore"):
+        if shift is None:
+            return np.exp(np.log(s) - log2s2)
+        return np.exp(np.minimum(np.asarray(mean, dtype=float) + np.log(s) - log2s2, 700.0))
+
+
+def verified_mass(p: np.ndarray, sd: np.ndarray, *, max_sd: float) -> float:
+    """Σ P over cells whose log-likelihood sd is at most ``max_sd`` nats (``p``, ``sd``: shape ``n``)."""
+    return float(np.sum(np.asarray(p, dtype=float)[np.asarray(sd) <= max_sd]))
+
+
+def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified_ratio: float) -> dict[str, str]:
+    """Parameters whose credible intervals from two segments are disjoint while both are narrow.
+
+    ``segment_marginals``: segment name -> marginals Dataset (``mean``, ``std``, ``lower``,
+    ``upper``, ``prior_std`` over ``parameter``). Returns parameter -> reason (only conflicting ones).
+    """
+    out: dict[str, str] = {}
+    names = list(segment_marginals)
+    for a_i, a in enumerate(names):
+        ma = segment_marginals[a]
+        for b in names[a_i + 1:]:
+            mb = segment_marginals[b]
+            narrow = ((ma["std"] < identified_ratio * ma["prior_std"]) & (mb["std"] < identified_ratio * mb["prior_std"]))
+            apart = (ma["upper"] < mb["lower"]) | (mb["upper"] < ma["lower"])
+            for name in ma["parameter"].values[(narrow & apart).values]:
+                key = str(name)
+                if key not in out:
+                    out[key] = (f"its best value moves between segments: {a} gives [{float(ma['lower'].sel(parameter=key)):.4g}, "
+                                f"{float(ma['upper'].sel(parameter=key)):.4g}], {b} gives "
+                                f"[{float(mb['lower'].sel(parameter=key)):.4g}, {float(mb['upper'].sel(parameter=key)):.4g}]")
+    return out
+
+
+def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
+    """A message when n_ok < per_dim x dim successful evaluations, else ""."""
+    need = per_dim * dim
+    if n_ok >= need:
+        return ""
+    return (f"{n_ok} successful evaluations for a {dim}-dimensional search: a GP needs about {per_dim} per "
+            f"dimension ({need}) to map E; P follows the GP's guesses between the evaluations. Verdicts "
+            f"require verified mass and evaluated support; raise the budget or search a lower-dimensional "
+            f"embedding for sharper answers.")
+
+
+def _sharp_verdict(j: int, marg: xr.Dataset, best: np.ndarray, vmass: float, cfg: VerdictConfig) -> tuple[str, str]:
+    lo, hi = float(marg["lower"].values[j]), float(marg["upper"].values[j])
+    ratio = float(marg["std"].values[j] / max(float(marg["prior_std"].values[j]), 1e-300))
+    if vmass < cfg.min_verified_mass:
+        return "weakly identified", (f"std is {ratio:.0%} of the prior's, but only {vmass:.0%} of P's mass lies on "
+                                     f"cells whose likelihood the GP knows to {cfg.max_loglik_sd:g} nat: the "
+                                     "interval rests on cells nobody evaluated")
+    tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
+    if not (lo - tol <= best[j] <= hi + tol):
+        return "weakly identified", (f"std is {ratio:.0%} of the prior's, but the best evaluated value "
+                                     f"{best[j]:.4g} lies outside the interval [{lo:.4g}, {hi:.4g}]")
+    return "identified", (f"std is {ratio:.0%} of the prior's; {vmass:.0%} of P's mass verified by the GP; "
+                          "the best evaluated value lies inside the interval")
+
+
+def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: float,
+           conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None) -> tuple[list[str], list[str]]:
+    """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 1-4).
+
+    ``best_theta``: θ of the best evaluation (D,); ``verified``: P's verified mass in [0, 1];
+    ``conflicts``: parameter -> reason, from :func:`segment_conflicts`.
+    """
+    cfg = config or VerdictConfig()
+    best = np.asarray(best_theta, dtype=float)
+    names = [str(n) for n in marginals["parameter"].values]
+    if best.shape != (len(names),):
+        raise BeliefError(f"best_theta must have shape ({len(names)},), got {best.shape}.")
+    conflicts = conflicts or {}
+    verdicts, reasons = [], []
+    for j, name in enumerate(names):
+        ratio = float(marginals["std"].values[j] / max(float(marginals["prior_std"].values[j]), 1e-300))
+        if name in conflicts:
+            v, why = "not identified", conflicts[name]
+        elif ratio >= cfg.weak_ratio:
+            v, why = "not identified", f"std is {ratio:.0%} of the prior's: the data barely narrow it"
+        elif ratio >= cfg.identified_ratio:
+            v, why = "weakly identified", f"std is {ratio:.0%} of the prior's"
+        else:
+            v, why = _sharp_verdict(j, marginals, best, verified, cfg)
+        verdicts.append(v)
+        reasons.append(why)
+    return verdicts, reasons

@@ -1,0 +1,85 @@
+"""Verdicts per parameter: narrow is not enough; P must be verified, supported and consistent."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from belief.errors import BeliefError
+from belief.grid import Grid
+from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
+from belief.surrogate import GPSurrogate
+from belief.verdicts import VerdictConfig, budget_warning, decide, loglik_sd, segment_conflicts, verified_mass
+from embeddings import Identity
+from physics.parameters import Parameter, ParameterSpace
+
+
+def _space(D: int = 2) -> ParameterSpace:
+    return ParameterSpace(tuple(Parameter(f"x{i}", "1", 0.5, 0.0, 1.0, minimum=-1.0) for i in range(D)))
+
+
+def test_gp_lower_tail_on_unevaluated_cells_is_not_identified() -> None:
+    """The failure of the issue: evaluations near x0 = 0.2, a sharp σ², and P piled on x0 > 0.5
+    (cells nobody evaluated, where the GP's lower tail wins). The old flag says identified."""
+    space = _space()
+    dec = Identity(space)
+    grid = Grid.for_decoder(dec, points_per_dim=41)
+    rng = np.random.default_rng(0)
+    Z = np.column_stack([rng.uniform(0, 0.35, 10), rng.uniform(0, 1, 10)])
+    E = 1.0 + (Z[:, 0] - 0.2) ** 2 + 0.1 * (Z[:, 1] - 0.5) ** 2
+    gp = GPSurrogate(grid.bounds).fit(Z, E)
+    pred = gp.predict(grid.points)
+    noise_var = 1e-4
+    P = posterior_from_surrogate(gp, grid, config=PosteriorConfig(), noise_var=noise_var, prediction=pred)
+    marg = marginals(P, dec.decode(grid.points), space)
+    x0 = marg.sel(parameter="x0")
+    assert bool(x0["identified"]) and float(x0["lower"]) > 0.4      # the old rule: sharp, and wrong
+    vmass = verified_mass(P.values.ravel(), loglik_sd(*pred, shift=gp.shift_, noise_var=noise_var), max_sd=1.0)
+    assert vmass < 0.01
+    verdicts, reasons = decide(marg, best_theta=Z[np.argmin(E)], verified=vmass)
+    assert verdicts[0] != "identified"
+    assert "nobody evaluated" in reasons[0]
+
+
+def _marg(mean, std, lower, upper, prior_std=0.29) -> xr.Dataset:
+    n = len(mean)
+    dims = ("parameter",)
+    return xr.Dataset({"mean": (dims, np.asarray(mean, float)), "std": (dims, np.asarray(std, float)),
+                       "lower": (dims, np.asarray(lower, float)), "upper": (dims, np.asarray(upper, float)),
+                       "prior_std": (dims, np.full(n, prior_std))},
+                      coords={"parameter": [f"x{i}" for i in range(n)]})
+
+
+def test_decide_follows_the_four_rules() -> None:
+    m = _marg(mean=[0.5, 0.5, 0.5, 0.5], std=[0.01, 0.2, 0.28, 0.01],
+              lower=[0.48, 0.2, 0.05, 0.48], upper=[0.52, 0.8, 0.95, 0.52])
+    v, why = decide(m, best_theta=[0.5, 0.5, 0.5, 0.9], verified=0.9)
+    assert v == ["identified", "weakly identified", "not identified", "weakly identified"]
+    assert "outside the interval" in why[3]
+    v, why = decide(m, best_theta=[0.5, 0.5, 0.5, 0.5], verified=0.2)
+    assert v[0] == "weakly identified" and "20%" in why[0]
+    v, why = decide(m, best_theta=[0.5, 0.5, 0.5, 0.5], verified=0.9, conflicts={"x0": "moves"})
+    assert v[0] == "not identified" and why[0] == "moves"
+    with pytest.raises(BeliefError, match="best_theta must have shape"):
+        decide(m, best_theta=[0.5], verified=1.0)
+
+
+def test_segment_conflicts_need_two_narrow_disjoint_intervals() -> None:
+    a = _marg(mean=[0.3, 0.3, 0.3], std=[0.01, 0.01, 0.2], lower=[0.28, 0.28, 0.0], upper=[0.32, 0.32, 0.7])
+    b = _marg(mean=[0.6, 0.31, 0.6], std=[0.01, 0.01, 0.01], lower=[0.58, 0.29, 0.58], upper=[0.62, 0.33, 0.62])
+    out = segment_conflicts({"w0": a, "w1": b}, identified_ratio=0.5)
+    assert list(out) == ["x0"]                    # x1 overlaps; x2 is not narrow in w0
+    assert "w0" in out["x0"] and "w1" in out["x0"]
+
+
+def test_budget_warning_names_the_numbers() -> None:
+    assert budget_warning(150, 15, per_dim=10) == ""
+    msg = budget_warning(40, 15, per_dim=10)
+    assert "40" in msg and "15-dimensional" in msg and "150" in msg
+
+
+def test_verdict_config_is_validated() -> None:
+    with pytest.raises(BeliefError, match="identified_ratio <= weak_ratio"):
+        VerdictConfig(identified_ratio=0.9, weak_ratio=0.5)
+    with pytest.raises(BeliefError, match="min_verified_mass"):
+        VerdictConfig(min_verified_mass=1.5)
