@@ -21,6 +21,19 @@ each segment s at the best evaluated θ::
     K_eff   = Σ_s m_eff,s T_s / τ_s
     σ²_ess  = σ²_iid · K / K_eff
 
+Model error also *moves* the minimum of E: the best fit can beat the truth by a few per cent of
+E in every segment (with noisy states the one-step error prefers parameters that damp the
+propagated noise; with another engine's data, parameters that mimic its missing effects). The
+rule therefore also bounds the likelihood's sharpness by a relative discrepancy δ, the excess
+error, as a fraction of E_min, that costs one nat::
+
+    σ² = max(σ²_iid · K / K_eff,  δ E_min / 2),   δ = max(δ_0, δ_seg)
+    δ_seg = median_s (E_s(θ̂) − min_k E_s(θ_k)) / E_s(θ̂)
+
+δ_seg is the evidence of the data: how much worse the overall best θ̂ fits segment s than that
+segment's own best evaluated θ_k (zero when all segments agree). δ_0 (``PosteriorConfig.discrepancy``,
+default 0.05) is the floor for what segments cannot show: a bias shared by all of them.
+
 The autocorrelation is not centred on purpose: a constant bias in the residuals (a sensor offset,
 a wrong ground height) is one number, however many samples repeat it, and keeps ρ near 1.
 White noise gives τ ≈ 1 and m_eff ≈ m, so σ²_ess ≈ σ²_iid: the rule only tempers the
@@ -40,7 +53,8 @@ import numpy as np
 
 from belief.errors import BeliefError
 
-__all__ = ["NOISE_RULES", "EffectiveSize", "effective_size", "iid_noise_var", "noise_var_from_residuals"]
+__all__ = ["NOISE_RULES", "EffectiveSize", "effective_size", "iid_noise_var", "noise_var_from_residuals",
+           "segment_discrepancy"]
 
 #: the selectable rules for σ² when the objective does not know its noise
 NOISE_RULES = ("ess", "iid")
@@ -135,12 +149,29 @@ def iid_noise_var(errors: np.ndarray, *, n_observations: int, dim: int) -> float
     return max(sigma2, 1e-12 * max(float(np.median(e)), 1e-300))
 
 
-def noise_var_from_residuals(errors: np.ndarray, residuals: Sequence[np.ndarray], *, dim: int) -> tuple[float, EffectiveSize]:
-    """σ²_ess = σ²_iid · K / K_eff with K and K_eff from the residual segments at the best θ.
+def segment_discrepancy(parts: np.ndarray) -> float:
+    """δ_seg = median_s (E_s(θ̂) − min_k E_s(θ_k)) / E_s(θ̂) over the n x S segment errors of the
+    successful evaluations (θ̂ = the row with the smallest total); 0 with a single segment."""
+    p = np.asarray(parts, dtype=float)
+    if p.ndim != 2 or p.shape[0] < 1:
+        raise BeliefError(f"parts must be an n x S array of segment errors, got shape {p.shape}.")
+    if p.shape[1] < 2:
+        return 0.0
+    best = p[int(np.argmin(p.sum(axis=1)))]
+    rel = (best - p.min(axis=0)) / np.maximum(best, 1e-300)
+    return float(np.median(rel))
+
+
+def noise_var_from_residuals(errors: np.ndarray, residuals: Sequence[np.ndarray], *, dim: int,
+                             discrepancy: float = 0.0) -> tuple[float, EffectiveSize]:
+    """σ² = max(σ²_iid · K / K_eff, δ E_min / 2) with K, K_eff from the residual segments at the best θ.
 
     ``errors``: observed E of the successful evaluations (n,); ``residuals``: the best θ's residual
-    segments (T_s x m each). Returns (σ², the EffectiveSize behind it).
+    segments (T_s x m each); ``discrepancy``: δ. Returns (σ², the EffectiveSize behind it).
     """
+    if not (np.isfinite(discrepancy) and discrepancy >= 0):
+        raise BeliefError(f"discrepancy must be a finite fraction >= 0 of E_min, got {discrepancy!r}.")
     size = effective_size(residuals)
     base = iid_noise_var(errors, n_observations=size.n, dim=dim)
-    return base * size.n / max(size.n_eff, 1.0), size
+    e_min = float(np.nanmin(np.asarray(errors, dtype=float)))
+    return max(base * size.n / max(size.n_eff, 1.0), 0.5 * discrepancy * e_min), size

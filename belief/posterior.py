@@ -63,7 +63,8 @@ class PosteriorConfig:
     """Options of the posterior (validated).
 
     ``mode``: "likelihood" or "minimizer"; ``noise_var``: sigma^2 in units of E (None = from the
-    objective or estimated by ``noise_rule``, "ess" or "iid", :mod:`belief.noise`);
+    objective or estimated by ``noise_rule``, "ess" or "iid", :mod:`belief.noise`); ``discrepancy``:
+    δ_0 of the "ess" rule, the relative excess error that costs one nat at least;
     ``n_samples``/``max_subset``: minimizer-mode sampling;
     ``level``: credible level of the marginal interval; ``identified_ratio``: a parameter is
     *identified* when its posterior std < identified_ratio x its prior std.
@@ -72,6 +73,7 @@ class PosteriorConfig:
     mode: Literal["likelihood", "minimizer"] = "likelihood"
     noise_var: float | None = None
     noise_rule: str = "ess"
+    discrepancy: float = 0.05
     n_samples: int = 2000
     max_subset: int = 1000
     level: float = 0.9
@@ -82,6 +84,8 @@ class PosteriorConfig:
             raise BeliefError(f"posterior mode must be 'likelihood' or 'minimizer', got {self.mode!r}.")
         if self.noise_rule not in NOISE_RULES:
             raise BeliefError(f"noise_rule must be one of {NOISE_RULES}, got {self.noise_rule!r}.")
+        if not (np.isfinite(self.discrepancy) and self.discrepancy >= 0):
+            raise BeliefError(f"discrepancy must be a fraction >= 0 of E_min (e.g. 0.05), got {self.discrepancy!r}.")
         if self.noise_var is not None and not (np.isfinite(self.noise_var) and self.noise_var > 0):
             raise BeliefError(f"noise_var must be a positive number (units of E) or None, got {self.noise_var!r}.")
         if not isinstance(self.n_samples, int) or self.n_samples < 1:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from belief.errors import BeliefError
-from belief.noise import effective_size, iid_noise_var, noise_var_from_residuals
+from belief.noise import effective_size, iid_noise_var, noise_var_from_residuals, segment_discrepancy
 
 
 def _ar1(T: int, m: int, phi: float, seed: int) -> np.ndarray:
@@ -73,3 +73,25 @@ def test_bad_residuals_raise_typed_errors() -> None:
         effective_size([np.zeros((2, 2, 2))])
     with pytest.raises(BeliefError, match="non-negative errors"):
         iid_noise_var(np.array([-1.0, 2.0]), n_observations=10, dim=1)
+
+
+def test_segment_discrepancy_measures_disagreement_between_segments() -> None:
+    agree = np.array([[1.0, 1.0], [2.0, 2.0], [3.0, 3.0]])
+    assert segment_discrepancy(agree) == 0.0
+    # the best total (row 0) fits segment 1 twice as badly as row 1 does
+    disagree = np.array([[1.0, 2.0], [5.0, 1.0], [3.0, 3.0]])
+    assert segment_discrepancy(disagree) == pytest.approx(np.median([0.0, 0.5]))
+    assert segment_discrepancy(np.array([[1.0], [2.0]])) == 0.0
+    with pytest.raises(BeliefError, match="n x S"):
+        segment_discrepancy(np.array([1.0, 2.0]))
+
+
+def test_discrepancy_floors_the_sharpness_relative_to_e_min() -> None:
+    r = np.random.default_rng(5).standard_normal((3000, 4))        # white: K_eff ≈ K
+    E = np.array([float(np.sum(r**2)), 1.5 * float(np.sum(r**2))])
+    plain, _ = noise_var_from_residuals(E, [r], dim=2)
+    floored, _ = noise_var_from_residuals(E, [r], dim=2, discrepancy=0.05)
+    assert floored == pytest.approx(0.5 * 0.05 * E.min())
+    assert floored > 100 * plain
+    with pytest.raises(BeliefError, match="discrepancy"):
+        noise_var_from_residuals(E, [r], dim=2, discrepancy=-1.0)
