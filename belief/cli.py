@@ -2,16 +2,18 @@
 
 ::
 
-    tensegrid identify DATA.nc --method {random,bo,rembo} --budget N --out DIR
+    tensegrid identify DATA.nc [MORE.nc ...] --method {random,bo,rembo} --budget N --out DIR
     tensegrid identify --toy push --method bo --budget 30 --out DIR
 
 Methods: ``random`` = random search in the full space (Identity decoder, Sobol candidates),
 ``bo`` = BO in the full space (same candidates; a regular grid when D <= 4), ``rembo`` = BO on a
-regular grid over a REMBO embedding of dimension ``--dim``. Writes ``DIR/result.nc`` (see
-``IdentificationResult.save``), ``summary.txt`` and ``marginals.csv``, ``history.csv``,
-``error_vs_evaluations.png``, ``posterior_marginals.png`` (and ``posterior_2d.png`` for 2-D
-grids, ``observed_vs_predicted.png`` with rollouts at the nominal, best and posterior-mean θ for
-trajectory data), and journals to ``DIR/journal.sqlite`` so an interrupted run resumes when re-run.
+regular grid over a REMBO embedding of dimension ``--dim``. Several data files make one objective:
+E(θ) sums the one-step errors of all trajectories, each split into ``--windows`` segments.
+Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` and
+``marginals.csv``, ``history.csv``, ``error_vs_evaluations.png``, ``posterior_marginals.png``
+(and ``posterior_2d.png`` for 2-D grids, ``observed_vs_predicted.png`` with rollouts at the
+nominal, best and posterior-mean θ of the first trajectory for trajectory data), and journals to
+``DIR/journal.sqlite`` so an interrupted run resumes when re-run.
 """
 from __future__ import annotations
 
@@ -29,7 +31,8 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
         "identify", help="identify physical parameters from a trajectory (Bayesian optimization, posterior P)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("data", nargs="?", help="observed trajectory (netCDF, docs/data-format.md)")
+    p.add_argument("data", nargs="*", default=[],
+                   help="observed trajectories (netCDF, docs/data-format.md); several files make one error E(θ)")
     p.add_argument("--toy", choices=["push"], help="use the 1-D push toy instead of data (no physics engine)")
     p.add_argument("--method", choices=["random", "bo", "rembo"], default="rembo")
     p.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
@@ -44,6 +47,8 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("--posterior", choices=["likelihood", "minimizer"], default="likelihood")
     p.add_argument("--loss", choices=["squared", "norm"], default="squared",
                    help="T6 error: sum of squared residuals (default; what the likelihood posterior assumes) or of norms")
+    p.add_argument("--windows", type=int, default=3,
+                   help="T6 error: contiguous segments per trajectory whose errors sum to E (default 3)")
     p.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
     p.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
     p.add_argument("--out", required=True, help="output directory")
@@ -62,8 +67,8 @@ def _push_objective(seed: int) -> tuple[Any, Any]:
     return PushError(impulses, observed, space=space, noise_std=0.05), truth
 
 
-def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str) -> None:
-    """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ."""
+def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, *, title: str = "") -> None:
+    """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ, for one trajectory."""
     from physics.error import TrajectoryError
     from physics.errors import PhysicsError
     from physics.plotting import plot_observed_vs_predicted
@@ -78,7 +83,7 @@ def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str) -> None:
             except PhysicsError as exc:  # a rollout may diverge; say so and draw the others
                 print(f"tensegrid identify: rollout at the {name} theta diverged ({exc}); not drawn", file=sys.stderr)
     if preds:
-        plot_observed_vs_predicted(dataset, preds, path, title="observed vs rollout predictions")
+        plot_observed_vs_predicted(dataset, preds, path, title=title or "observed vs rollout predictions")
 
 
 def run_identify(args: argparse.Namespace) -> int:
@@ -91,11 +96,11 @@ def run_identify(args: argparse.Namespace) -> int:
     from embeddings import REMBO, Identity
     from physics.errors import TensegridError
 
-    if (args.data is None) == (args.toy is None):
-        print("tensegrid identify: give either DATA.nc or --toy push (exactly one).", file=sys.stderr)
+    if bool(args.data) == (args.toy is not None):
+        print("tensegrid identify: give either DATA.nc files or --toy push (exactly one).", file=sys.stderr)
         return 2
     truth = None
-    dataset = None
+    datasets: list[Any] = []
     try:
         if args.toy == "push":
             objective, truth = _push_objective(args.seed)
@@ -103,8 +108,8 @@ def run_identify(args: argparse.Namespace) -> int:
             from physics.error import TrajectoryError
             from physics.trajectory import load_trajectory
 
-            dataset = load_trajectory(args.data)
-            objective = TrajectoryError([dataset], horizon=1, loss=args.loss,
+            datasets = [load_trajectory(path) for path in args.data]
+            objective = TrajectoryError(datasets, horizon=1, loss=args.loss, windows=args.windows,
                                         n_workers=args.workers if args.workers > 1 else 0)
         space = objective.space
         D = space.dim
@@ -149,8 +154,10 @@ def run_identify(args: argparse.Namespace) -> int:
     if result.posterior.ndim == 2 and result.posterior.dims == ("z0", "z1"):
         plot_posterior_2d(result.posterior, os.path.join(out, "posterior_2d.png"), decoder=decoder,
                           evaluated=h["z"].values, truth=truth)
-    if dataset is not None:
-        _plot_rollouts(dataset, space, result, os.path.join(out, "observed_vs_predicted.png"))
+    if datasets:
+        title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
+                 if len(datasets) > 1 else "")
+        _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
     print(result.summary())
     print(f"wrote {out}/result.nc, summary.txt, marginals.csv, history.csv and figures")
     return 0

@@ -1,33 +1,84 @@
 """physics: what the world does — parameter spaces, the DART SUPERball model, its motors and
-controllers, trajectories (xarray), the trajectory error E(θ), and the 1-D push toy.
+controllers, trajectories (xarray), the trajectory error E(θ), the objective contract, the dask
+pool and the 1-D push toy.
 
 Knows nothing of GPs or embeddings (the arrows point planners -> belief -> embeddings -> physics).
+
+Public names are re-exported lazily (PEP 562): ``from physics import TrajectoryError`` imports
+:mod:`physics.error` on first use, so ``import physics.parameters`` (and thereby ``belief`` and
+``embeddings``) does not load dartpy or compile the numba kernels.
 """
 from __future__ import annotations
 
-from physics.errors import (
-    ControllerError, ParameterError, PhysicsError, TensegridError, TrajectoryFormatError,
-)
-from physics.parameters import T6_NOMINAL, Parameter, ParameterSpace
-from physics.geometry import CABLE_NAMES, CABLE_NODES, ROD_NODES, closed_faces, node_positions, rod_mass_properties
-from physics.actuators import MotorGains
-from physics.tensegrity import ModelOptions, RobotState, T6Model, rod_poses_from_nodes
-from physics.controllers import Controller, FlopController, FlopPlan, HoldController, ReplayController
-from physics.trajectory import load_trajectory, make_trajectory, save_trajectory, validate_trajectory
-from physics.simulate import settled_model, simulate
-from physics.predictor import ObservedStates, predict, reconstruct_actuators
-from physics.error import BatchResult, TrajectoryError
-from physics.push import PushError, generate_push_data, push_space, simulate_push
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING, Any
 
-__all__ = [
-    "TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError", "ControllerError",
-    "Parameter", "ParameterSpace", "T6_NOMINAL",
-    "CABLE_NAMES", "CABLE_NODES", "ROD_NODES", "closed_faces", "node_positions", "rod_mass_properties",
-    "MotorGains", "ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes",
-    "Controller", "FlopController", "FlopPlan", "HoldController", "ReplayController",
-    "make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory",
-    "simulate", "settled_model",
-    "ObservedStates", "predict", "reconstruct_actuators",
-    "TrajectoryError", "BatchResult",
-    "PushError", "generate_push_data", "push_space", "simulate_push",
-]
+if TYPE_CHECKING:
+    from physics.actuators import MotorGains
+    from physics.controllers import Controller, FlopController, FlopPlan, HoldController, ReplayController
+    from physics.error import TrajectoryError
+    from physics.errors import (
+        ControllerError, ParameterError, PhysicsError, PoolError, TensegridError, TrajectoryFormatError,
+    )
+    from physics.geometry import (
+        CABLE_NAMES, CABLE_NODES, ROD_NODES, closed_faces, node_positions, rod_mass_properties,
+    )
+    from physics.objective import STATUSES, BatchResult, Objective
+    from physics.parameters import T6_NOMINAL, Parameter, ParameterSpace
+    from physics.pool import DaskPool
+    from physics.predictor import ObservedStates, predict, reconstruct_actuators
+    from physics.push import PushError, generate_push_data, push_space, simulate_push
+    from physics.simulate import settled_model, simulate
+    from physics.tensegrity import ModelOptions, RobotState, T6Model, rod_poses_from_nodes
+    from physics.trajectory import load_trajectory, make_trajectory, save_trajectory, validate_trajectory
+
+_EXPORTS: dict[str, tuple[str, ...]] = {
+    "physics.errors": ("TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError",
+                       "ControllerError", "PoolError"),
+    "physics.parameters": ("Parameter", "ParameterSpace", "T6_NOMINAL"),
+    "physics.geometry": ("CABLE_NAMES", "CABLE_NODES", "ROD_NODES", "closed_faces", "node_positions",
+                         "rod_mass_properties"),
+    "physics.actuators": ("MotorGains",),
+    "physics.tensegrity": ("ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes"),
+    "physics.controllers": ("Controller", "FlopController", "FlopPlan", "HoldController", "ReplayController"),
+    "physics.trajectory": ("make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory"),
+    "physics.simulate": ("simulate", "settled_model"),
+    "physics.predictor": ("ObservedStates", "predict", "reconstruct_actuators"),
+    "physics.objective": ("STATUSES", "BatchResult", "Objective"),
+    "physics.pool": ("DaskPool",),
+    "physics.error": ("TrajectoryError",),
+    "physics.push": ("PushError", "generate_push_data", "push_space", "simulate_push"),
+}
+_ORIGIN = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = [name for names in _EXPORTS.values() for name in names]
+
+
+def __getattr__(name: str) -> Any:
+    """Import the module that defines a public name on first access (PEP 562) and cache the name."""
+    module = _ORIGIN.get(name)
+    if module is None:
+        raise AttributeError(f"module 'physics' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """The package's module type: importing the submodule ``physics.simulate`` must not replace the
+    public function ``physics.simulate`` (the import system sets a package attribute per loaded
+    submodule; with eager imports the function was bound afterwards and won)."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(value, types.ModuleType) and _ORIGIN.get(name) is not None:
+            return                      # resolved to the public object by __getattr__ on first access
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

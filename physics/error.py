@@ -15,23 +15,33 @@ prediction runs before it is compared:
 - ``"rollout"``: one free rollout from the first rebuildable state to the end — the "trajectory
   error" of the paper's figures.
 
+Segments: the samples of trajectory k that are compared (those the prediction windows reach,
+fixed by the data and ``horizon``, not by θ) are split, in time order, into ``windows``
+contiguous groups whose sizes differ by at most one sample (fewer groups when the trajectory has
+fewer compared samples than ``windows``). Group j is segment ``f"t{k}/w{j}"``; its part is the
+sum above restricted to its samples, so E(θ) = Σ_s parts_s(θ) (:meth:`TrajectoryError.evaluate_parts`),
+and :meth:`TrajectoryError.residuals` returns the residual rows x_i - x̂_i (36 coordinates,
+node-major: node 0 x, y, z, node 1 x, ...) of each segment.
+
 Samples with missing observations are skipped. A single evaluation raises :class:`PhysicsError`
-if the simulation diverges; :meth:`TrajectoryError.evaluate_batch` records it as a failure and
-goes on. Batches run in parallel on dask.distributed: a local cluster (one single-threaded
+if the simulation diverges; :meth:`TrajectoryError.evaluate_batch` records it with status
+"diverged" and goes on (:mod:`physics.objective` has the contract). Batches run in parallel on
+dask.distributed through :class:`physics.pool.DaskPool`: a local cluster (one single-threaded
 process per worker, started on first use and reused) or an existing scheduler's address.
 """
 from __future__ import annotations
 
 import hashlib
-import time as _time
-from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
+import operator
+from typing import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
 
-from physics.errors import ParameterError, PhysicsError, TensegridError, TrajectoryFormatError
+from physics.errors import ParameterError, TrajectoryFormatError
+from physics.objective import BatchResult, OnResult, Row, evaluate_row
 from physics.parameters import ParameterSpace
+from physics.pool import DaskPool, map_serial
 from physics.predictor import ObservedStates, actuator_states, predict
 from physics.tensegrity import ModelOptions, T6Model
 from physics.trajectory import validate_trajectory
@@ -39,36 +49,20 @@ from physics.trajectory import validate_trajectory
 __all__ = ["TrajectoryError", "BatchResult"]
 
 
-@dataclass(frozen=True)
-class BatchResult:
-    """Results of a batch: errors (n,) (NaN where failed), status (n,) "ok"/"diverged"/"error",
-    seconds (n,) wall time per evaluation, messages (n,) ("" when ok)."""
-
-    errors: np.ndarray
-    status: tuple[str, ...]
-    seconds: np.ndarray
-    messages: tuple[str, ...]
-
-    def __len__(self) -> int:
-        return len(self.status)
-
-    def __iter__(self):
-        """Rows as (error, status) pairs."""
-        return iter(zip(self.errors.tolist(), self.status))
-
-
 def _warm_up() -> None:
     """Load the compiled kernels in a worker, so the first evaluation is not charged for it."""
     T6Model().step(None, n=2)
 
 
-def _evaluate_remote(objective: "TrajectoryError", theta: np.ndarray) -> tuple[float, str, float, str]:
-    start = _time.perf_counter()
+def _check_windows(windows: int) -> int:
     try:
-        value = objective(theta)
-        return value, "ok", _time.perf_counter() - start, ""
-    except PhysicsError as exc:
-        return float("nan"), "diverged", _time.perf_counter() - start, str(exc)
+        value = 0 if isinstance(windows, bool) else operator.index(windows)
+    except TypeError:
+        value = 0
+    if value < 1:
+        raise ParameterError(f"windows must be an integer >= 1 (contiguous segments per trajectory), got {windows!r}; "
+                             "pass windows=1 for one segment per trajectory.")
+    return value
 
 
 class TrajectoryError:
@@ -77,14 +71,16 @@ class TrajectoryError:
     trajectories: one Dataset or a sequence (docs/data-format.md); horizon: 1, k or "rollout";
     actuators: "reconstructed" (default: θ's motor model is run along the observed motion, so the
     motor parameters act on E), "measured" (rest lengths from the data's encoder readings: the
-    motor parameters then barely act on a one-step error) or "auto" (measured if available); options: model options (dt must divide the sampling interval);
-    address: a dask scheduler address for batches (default: a local cluster of ``n_workers``
-    single-threaded processes; ``n_workers=0`` evaluates batches serially in this process).
+    motor parameters then barely act on a one-step error) or "auto" (measured if available);
+    loss: "norm" or "squared"; options: model options (dt must divide the sampling interval);
+    windows: segments per trajectory (module docstring); address: a dask scheduler address for
+    batches (default: a local cluster of ``n_workers`` single-threaded processes; ``n_workers=0``
+    evaluates batches serially in this process).
     """
 
     def __init__(self, trajectories: "xr.Dataset | Sequence[xr.Dataset]", *, space: ParameterSpace | None = None,
                  horizon: "int | str" = 1, actuators: str = "reconstructed", loss: str = "norm",
-                 options: ModelOptions | None = None,
+                 options: ModelOptions | None = None, windows: int = 3,
                  address: str | None = None, n_workers: int = 2) -> None:
         if isinstance(trajectories, xr.Dataset):
             trajectories = [trajectories]
@@ -100,10 +96,9 @@ class TrajectoryError:
         if loss not in ("norm", "squared"):
             raise ParameterError(f"loss must be 'norm' (Σ‖r‖, the paper's) or 'squared' (Σ‖r‖²), got {loss!r}.")
         self.horizon, self.actuators, self.loss = horizon, actuators, loss
+        self.windows = _check_windows(windows)
         self.options = options or ModelOptions()
-        if int(n_workers) < 0:
-            raise ParameterError(f"n_workers must be >= 0 (0 = serial), got {n_workers!r}.")
-        self.address, self.n_workers = address, int(n_workers)
+        self._pool = DaskPool(address, n_workers=n_workers, warm_up=_warm_up)
         self._observed = [ObservedStates(ds) for ds in self.trajectories]
         for k, obs in enumerate(self._observed):
             sub = obs.interval / self.options.dt
@@ -115,22 +110,42 @@ class TrajectoryError:
             if not obs.valid.any():
                 raise TrajectoryFormatError(f"trajectory {k}: no sample has a complete state (nodes, velocity "
                                             "estimate and controls); too many NaN.")
-        self._client = None
-        self._cluster = None
-        self._remote = None
+        self._groups = [self._segment_groups(k, obs) for k, obs in enumerate(self._observed)]
+
+    @property
+    def address(self) -> str | None:
+        """The dask scheduler address batches run on, or None for a local cluster / serial."""
+        return self._pool.address
+
+    @property
+    def n_workers(self) -> int:
+        """Worker processes of the local cluster (0 = batches run serially in this process)."""
+        return self._pool.n_workers
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Names f"t{k}/w{j}" of the S segments (trajectory k, group j of its compared samples)."""
+        return tuple(f"t{k}/w{j}" for k, groups in enumerate(self._groups) for j in range(len(groups)))
+
+    @property
+    def noise_var(self) -> float | None:
+        """Observation noise variance per coordinate: unknown for data (None); belief estimates it."""
+        return None
 
     def fingerprint(self) -> dict:
-        """What identifies this objective in a journal: a hash of the data and the settings."""
+        """What identifies this objective in a journal: a hash of the data and the settings, and the segments."""
         digest = hashlib.sha256()
         for obs in self._observed:
             for arr in (obs.times, obs.nodes, obs.controls, obs.velocities):
                 digest.update(np.ascontiguousarray(arr).tobytes())
         return {"kind": "T6 TrajectoryError", "data_sha256": digest.hexdigest(), "horizon": str(self.horizon),
-                "actuators": self.actuators, "loss": self.loss, "options": repr(self.options), "parameters": list(self.space.names)}
+                "actuators": self.actuators, "loss": self.loss, "options": repr(self.options),
+                "parameters": list(self.space.names), "windows": self.windows, "segments": list(self.segments)}
 
-    # ------------------------------------------------------------------ windows
+    # ------------------------------------------------------------------ windows and segments
     def _windows(self, obs: ObservedStates) -> list[tuple[int, int]]:
-        """(start, steps) pairs: starts are rebuildable states, every compared sample observed."""
+        """Prediction windows (start, steps): each starts at a rebuildable state and is compared
+        at samples start+1 .. start+steps (the horizon's windows, not the segments)."""
         last = len(obs.times) - 1
         if self.horizon == "rollout":
             starts = np.flatnonzero(obs.valid[:last])
@@ -146,17 +161,29 @@ class TrajectoryError:
                 i += 1
         return out
 
+    def _segment_groups(self, k: int, obs: ObservedStates) -> list[np.ndarray]:
+        """The compared sample indices of one trajectory (sorted) split into min(windows, count)
+        contiguous groups whose sizes differ by at most one."""
+        spans = [np.arange(start + 1, start + 1 + steps) for start, steps in self._windows(obs)]
+        compared = np.concatenate(spans) if spans else np.empty(0, dtype=int)
+        if compared.size == 0:
+            raise TrajectoryFormatError(f"trajectory {k}: no sample can be predicted and compared (a prediction "
+                                        "needs a complete state followed by an observed sample); too many NaN.")
+        return np.array_split(compared, min(self.windows, compared.size))
+
     # ------------------------------------------------------------------ evaluation
-    def predictions(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[xr.DataArray]:
-        """Predicted node positions f(x_i, u_i, θ) per trajectory, DataArrays (time, node, axis) in
-        the layout of the data's ``nodes``; NaN where nothing was predicted (the first samples,
-        holes). Raises :class:`PhysicsError` if a simulation diverges."""
-        theta = self.space.as_array(theta, check_bounds=False)
-        if theta.ndim != 1:
-            raise ParameterError(f"predictions take one θ of shape ({self.space.dim},), got {theta.shape}.")
+    def _theta(self, theta: "np.ndarray | Mapping[str, float] | None") -> np.ndarray:
+        arr = self.space.as_array(theta, check_bounds=False)
+        if arr.ndim != 1:
+            raise ParameterError(f"one θ of shape ({self.space.dim},) is expected here, got {arr.shape}; "
+                                 "use evaluate_batch for a batch (n x D).")
+        return arr
+
+    def _predict(self, theta: np.ndarray) -> list[np.ndarray]:
+        """Predicted nodes (T x 12 x 3) per trajectory, NaN where not predicted. One pass of the simulator."""
         model = T6Model(theta, space=self.space, options=self.options)
         out = []
-        for ds, obs in zip(self.trajectories, self._observed):
+        for obs in self._observed:
             pred = np.full_like(obs.nodes, np.nan)
             rest, speed = actuator_states(obs, model, self.actuators)
             controls_ok = np.isfinite(obs.controls).all(axis=1)
@@ -166,101 +193,88 @@ class TrajectoryError:
                     if steps == 0:
                         continue
                 pred[start + 1:start + 1 + steps] = predict(model, obs, start, steps, rest, speed)
-            out.append(xr.DataArray(pred, dims=("time", "node", "axis"), coords=ds["nodes"].coords,
-                                    name="predicted_nodes", attrs={"units": "m", "horizon": str(self.horizon)}))
+            out.append(pred)
         return out
+
+    def predictions(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[xr.DataArray]:
+        """Predicted node positions f(x_i, u_i, θ) per trajectory, DataArrays (time, node, axis) in
+        the layout of the data's ``nodes``; NaN where nothing was predicted (the first samples,
+        holes). Raises :class:`PhysicsError` if a simulation diverges."""
+        preds = self._predict(self._theta(theta))
+        return [xr.DataArray(pred, dims=("time", "node", "axis"), coords=ds["nodes"].coords,
+                             name="predicted_nodes", attrs={"units": "m", "horizon": str(self.horizon)})
+                for pred, ds in zip(preds, self.trajectories)]
+
+    def _sample_errors(self, preds: list[np.ndarray]) -> list[np.ndarray]:
+        return [np.sqrt(((pred - obs.nodes) ** 2).sum(axis=(1, 2))) for pred, obs in zip(preds, self._observed)]
 
     def per_sample(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[np.ndarray]:
         """Per-sample errors ||x_i - x̂_i||_2 (T,) for each trajectory, NaN where not compared."""
-        return [np.sqrt(((pred.values - obs.nodes) ** 2).sum(axis=(1, 2)))
-                for pred, obs in zip(self.predictions(theta), self._observed)]
+        return self._sample_errors(self._predict(self._theta(theta)))
+
+    def evaluate_parts(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> np.ndarray:
+        """Per-segment errors (S,) in the order of :attr:`segments`: part (k, j) = Σ_{i in group j of
+        trajectory k} ||x_i - x̂_i||_2 (loss "norm") or its square (loss "squared"), NaN samples
+        skipped; the parts sum to E(θ). Raises :class:`PhysicsError` if a simulation diverges."""
+        power = 1 if self.loss == "norm" else 2
+        parts = [np.nansum(errors[group] ** power)
+                 for errors, groups in zip(self.per_sample(theta), self._groups) for group in groups]
+        return np.asarray(parts, dtype=float)
+
+    def residuals(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[np.ndarray]:
+        """Residuals x_i - x̂_i per segment: S arrays (T_s, 36), node-major coordinates [m], one row per
+        sample from the segment's first to its last compared sample (time order), NaN rows where
+        nothing was compared. Σ_s nansum(r_s²) equals E(θ) for loss "squared"; Σ_s Σ_rows ||r|| for "norm"."""
+        out = []
+        for pred, obs, groups in zip(self._predict(self._theta(theta)), self._observed, self._groups):
+            diff = (obs.nodes - pred).reshape(len(pred), 36)
+            diff[~np.isfinite(diff).all(axis=1)] = np.nan
+            out.extend(diff[group[0]:group[-1] + 1] for group in groups)
+        return out
 
     def __call__(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> "float | np.ndarray":
-        """E(θ) for one θ (D,) -> float, or a batch (n x D) -> (n,) with NaN for diverged runs."""
+        """E(θ) = Σ_s parts_s for one θ (D,) -> float, or a batch (n x D) -> (n,) with NaN where not ok."""
         arr = self.space.as_array(theta, check_bounds=False)
         if arr.ndim == 2:
             return self.evaluate_batch(arr).errors
-        power = 1 if self.loss == "norm" else 2
-        return float(sum(np.nansum(e**power) for e in self.per_sample(arr)))
+        return float(self.evaluate_parts(arr).sum())
 
     @property
     def n_observations(self) -> int:
         """Number of compared coordinates (36 per compared sample), for noise estimates."""
         return int(sum(36 * sum(steps for _, steps in self._windows(obs)) for obs in self._observed))
 
-    # ------------------------------------------------------------------ batches (dask)
-    def _get_client(self):
-        if self._client is None:
-            from distributed import Client, LocalCluster
-            if self.address is not None:
-                self._client = Client(self.address)
-            else:
-                try:
-                    self._cluster = LocalCluster(n_workers=self.n_workers, threads_per_worker=1, processes=True,
-                                                 dashboard_address=None, silence_logs=40)
-                except RuntimeError as exc:
-                    raise TensegridError(
-                        f"Could not start a local dask cluster ({exc}). Worker processes are spawned and import "
-                        "your script: put the script's code under `if __name__ == \"__main__\":`, or evaluate "
-                        "serially with TrajectoryError(..., n_workers=0)."
-                    ) from exc
-                self._client = Client(self._cluster)
-            self._client.run(_warm_up)
-        return self._client
-
+    # ------------------------------------------------------------------ batches
     def evaluate_batch(self, thetas: np.ndarray, *, parallel: bool = True,
-                       on_result: "Callable[[int, float, str, float, str], None] | None" = None) -> BatchResult:
-        """E at each row of ``thetas`` (n x D); failures are recorded, not raised.
+                       on_result: OnResult | None = None) -> BatchResult:
+        """E and its parts at each row of ``thetas`` (n x D); failures are recorded, not raised.
 
-        parallel: run on dask.distributed (local cluster or ``address``); False (or ``n_workers=0``
-        without an address) runs in this process. on_result(k, error, status, seconds, message):
-        called for each row k as soon as it is done (completion order), e.g. to journal it before
-        the rest of the batch returns; the BatchResult keeps the input order.
+        Statuses: "ok", "diverged" (:class:`PhysicsError`), "failed" (another tensegrid error or a
+        non-finite E). parallel: run on dask.distributed (local cluster or ``address``); False (or
+        ``n_workers=0`` without an address) runs in this process. on_result(k, error, status,
+        seconds, message, parts (S,)): called for each row k as soon as it is done (completion
+        order), e.g. to journal it before the rest of the batch returns; the result keeps the input order.
         """
-        thetas = self.space.as_array(thetas, check_bounds=False)
-        thetas = np.atleast_2d(thetas)
-        rows: list = [None] * len(thetas)
-        if parallel and (self.n_workers > 0 or self.address is not None):
-            from distributed import as_completed
-            client = self._get_client()
-            if self._remote is None:    # ship the data to the workers once, not per batch
-                self._remote = client.scatter(self, broadcast=True, hash=False)
-            futures = client.map(_evaluate_remote, [self._remote] * len(thetas), list(thetas), pure=False)
-            index = {f.key: k for k, f in enumerate(futures)}
-            for fut in as_completed(futures):
-                k = index[fut.key]
-                rows[k] = fut.result()
-                if on_result is not None:
-                    on_result(k, *rows[k])
+        thetas = np.atleast_2d(self.space.as_array(thetas, check_bounds=False))
+        if thetas.ndim != 2:
+            raise ParameterError(f"thetas must have shape (n, {self.space.dim}), got {thetas.shape}.")
+
+        def relay(k: int, row: Row) -> None:
+            on_result(k, *row)
+
+        callback = relay if on_result is not None else None
+        if parallel:
+            rows = self._pool.map_rows(evaluate_row, self, list(thetas), callback)
         else:
-            for k, th in enumerate(thetas):
-                rows[k] = _evaluate_remote(self, th)
-                if on_result is not None:
-                    on_result(k, *rows[k])
-        return BatchResult(np.array([r[0] for r in rows]), tuple(r[1] for r in rows),
-                           np.array([r[2] for r in rows]), tuple(r[3] for r in rows))
+            rows = map_serial(evaluate_row, self, list(thetas), callback)
+        return BatchResult.from_rows(rows, len(self.segments))
 
     def close(self) -> None:
         """Shut down the local dask cluster, if one was started."""
-        if self._client is not None:
-            self._client.close()
-        if self._cluster is not None:
-            self._cluster.close()
-        self._client = self._cluster = self._remote = None
+        self._pool.close()
 
     def __enter__(self) -> "TrajectoryError":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
-
-    def __getstate__(self) -> dict:
-        state = self.__dict__.copy()
-        state["_client"] = state["_cluster"] = state["_remote"] = None
-        return state
-
-    def __del__(self) -> None:  # pragma: no cover - best effort at interpreter exit
-        try:
-            self.close()
-        except Exception:
-            pass

@@ -12,6 +12,7 @@ __all__ = [
     "TrajectoryFormatError",
     "PhysicsError",
     "ControllerError",
+    "PoolError",
 ]
 
 
@@ -33,3 +34,7 @@ class PhysicsError(TensegridError, RuntimeError):
 
 class ControllerError(TensegridError, ValueError):
     """A controller was given an invalid option or produced an invalid command."""
+
+
+class PoolError(TensegridError, RuntimeError):
+    """A pool of worker processes could not be started or reached (physics.pool)."""

@@ -10,24 +10,29 @@ Identification is ill-posed: every (m, mu) with the same ``m^2 mu`` gives the sa
 impulse, so data can only pin down the ridge ``m^2 mu = const``. That makes the toy the test bed
 of the belief package: a correct posterior must spread along the ridge.
 
-The objective :class:`PushError` follows the protocol of ``belief.identify``: attribute ``space``,
-``__call__(theta) -> float`` and ``evaluate_batch(thetas) -> list[tuple[float, str]]``. Its error
+The objective :class:`PushError` implements the contract of :mod:`physics.objective`. Its error
 is the *sum of squared residuals*::
 
-    E(theta) = sum_k (S(theta; J_k) - S_obs_k)^2          [m^2]
+    E(theta) = sum_k (S_obs_k - S(theta; J_k))^2          [m^2]
 
 so that with Gaussian observation noise of standard deviation ``noise_std`` the likelihood is
-``exp(-E / (2 noise_std^2))`` exactly (``noise_var`` attribute).
+``exp(-E / (2 noise_std^2))`` exactly (``noise_var`` attribute). Its segments ``w0 .. w{W-1}``
+are the pushes, in the given order, split into ``windows`` contiguous groups whose sizes differ
+by at most one (fewer groups when there are fewer pushes than ``windows``); part j is the sum
+above over group j, and the residuals of group j are the column ``S_obs_k - S(theta; J_k)`` (K_j, 1).
 """
 from __future__ import annotations
 
 import hashlib
+import operator
 from typing import Sequence
 
 import numpy as np
 
 from physics.errors import ParameterError, PhysicsError
+from physics.objective import BatchResult, OnResult, evaluate_row
 from physics.parameters import Parameter, ParameterSpace
+from physics.pool import map_serial
 
 __all__ = ["push_space", "simulate_push", "generate_push_data", "PushError"]
 
@@ -104,12 +109,13 @@ def generate_push_data(
 
 
 class PushError:
-    """Objective E(theta) = sum_k (S(theta; J_k) - S_obs_k)^2 [m^2] for the push toy.
+    """Objective E(theta) = sum_k (S_obs_k - S(theta; J_k))^2 [m^2] for the push toy.
 
     ``impulses`` and ``observed`` have shape ``K``. ``noise_std`` (m), when known, sets
     ``noise_var = noise_std^2`` so that exp(-E / (2 noise_var)) is the exact Gaussian likelihood.
     ``fail_above``: a mass above this value raises :class:`PhysicsError` (a stand-in for a diverging
-    simulation, used to test failure handling); ``None`` disables it.
+    simulation, used to test failure handling); ``None`` disables it. ``windows``: the number of
+    contiguous groups of pushes that make the segments (module docstring).
     """
 
     def __init__(
@@ -120,6 +126,7 @@ class PushError:
         space: ParameterSpace | None = None,
         noise_std: float | None = None,
         fail_above: float | None = None,
+        windows: int = 2,
     ) -> None:
         self.space = space or push_space()
         if self.space.names != ("m", "mu"):
@@ -139,6 +146,20 @@ class PushError:
             raise ParameterError(f"noise_std must be a positive length in m or None, got {noise_std!r}.")
         self.noise_std = noise_std
         self.fail_above = fail_above
+        try:
+            n_windows = 0 if isinstance(windows, bool) else operator.index(windows)
+        except TypeError:
+            n_windows = 0
+        if n_windows < 1:
+            raise ParameterError(f"windows must be an integer >= 1 (contiguous groups of pushes), got {windows!r}; "
+                                 "pass windows=1 for a single segment.")
+        self.windows = n_windows
+        self._groups = np.array_split(np.arange(self.impulses.size), min(n_windows, self.impulses.size))
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Names ``w0 .. w{W-1}`` of the contiguous groups of pushes, W = min(windows, K)."""
+        return tuple(f"w{j}" for j in range(len(self._groups)))
 
     @property
     def n_observations(self) -> int:
@@ -153,23 +174,38 @@ class PushError:
     def fingerprint(self) -> dict[str, object]:
         """JSON-able identity of the data and options (a journal refuses another data set)."""
         h = hashlib.sha256(np.ascontiguousarray(self.impulses).tobytes() + np.ascontiguousarray(self.observed).tobytes())
-        return {"kind": "push", "data_sha256": h.hexdigest(), "noise_std": self.noise_std, "fail_above": self.fail_above}
+        return {"kind": "push", "data_sha256": h.hexdigest(), "noise_std": self.noise_std,
+                "fail_above": self.fail_above, "windows": self.windows, "segments": list(self.segments)}
 
-    def __call__(self, theta: "np.ndarray | Sequence[float]") -> float:
+    def _residual(self, theta: "np.ndarray | Sequence[float]") -> np.ndarray:
+        """S_obs - S(theta) (K,) [m]; raises PhysicsError above ``fail_above``."""
         th = self.space.as_array(theta)
         if th.ndim != 1:
             raise ParameterError(f"PushError takes one theta of shape (2,), got {th.shape}; use evaluate_batch.")
         if self.fail_above is not None and th[0] > self.fail_above:
             raise PhysicsError(f"push toy: mass {th[0]!r} kg above fail_above={self.fail_above!r} (simulated divergence).")
-        S = simulate_push(th, self.impulses, space=self.space)
-        return float(np.sum((S - self.observed) ** 2))
+        return self.observed - simulate_push(th, self.impulses, space=self.space)
 
-    def evaluate_batch(self, thetas: np.ndarray) -> list[tuple[float, str]]:
-        """E for each row of ``thetas`` (``n x 2``): a list of ``(error, status)``, status "ok" or "failed"."""
-        out: list[tuple[float, str]] = []
-        for th in np.atleast_2d(np.asarray(thetas, dtype=float)):
-            try:
-                out.append((self(th), "ok"))
-            except PhysicsError:
-                out.append((float("nan"), "failed"))
-        return out
+    def evaluate_parts(self, theta: "np.ndarray | Sequence[float]") -> np.ndarray:
+        """Per-segment errors (S,) [m^2]: sum of squared residuals over each group of pushes."""
+        r = self._residual(theta)
+        return np.array([np.sum(r[group] ** 2) for group in self._groups])
+
+    def residuals(self, theta: "np.ndarray | Sequence[float]") -> list[np.ndarray]:
+        """Residuals S_obs - S(theta) per segment: S arrays (K_j, 1) [m] in push order."""
+        r = self._residual(theta)
+        return [r[group, None] for group in self._groups]
+
+    def __call__(self, theta: "np.ndarray | Sequence[float]") -> float:
+        """E(theta) [m^2] for theta of shape (2,), the sum of the parts."""
+        return float(self.evaluate_parts(theta).sum())
+
+    def evaluate_batch(self, thetas: np.ndarray, *, on_result: OnResult | None = None) -> BatchResult:
+        """E and parts at each row of ``thetas`` (``n x 2``), in this process; failures are recorded
+        ("diverged" for :class:`PhysicsError`, "failed" for another tensegrid error), not raised.
+        on_result(k, error, status, seconds, message, parts (S,)) is called after each row."""
+        arr = np.atleast_2d(np.asarray(thetas, dtype=float))
+        if arr.ndim != 2 or arr.shape[1] != self.space.dim:
+            raise ParameterError(f"thetas must have shape (n, {self.space.dim}) in the order (m, mu), got {arr.shape}.")
+        relay = None if on_result is None else (lambda k, row: on_result(k, *row))
+        return BatchResult.from_rows(map_serial(evaluate_row, self, list(arr), relay), len(self.segments))

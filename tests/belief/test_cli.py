@@ -64,3 +64,37 @@ def test_identify_t6_trajectory_file(tmp_path) -> None:
     assert res.n_evaluations == 6 and res.marginals.sizes["parameter"] == 15
     assert res.config["objective"]["kind"] == "T6 TrajectoryError"
     assert (out / "posterior_marginals.png").exists() and (out / "observed_vs_predicted.png").exists()
+
+
+@pytest.fixture(scope="module")
+def two_files(tmp_path_factory):
+    """Two short SUPERball trajectories (same θ, flops toward +x and +y), saved as netCDF."""
+    from physics import FlopController, ParameterSpace, save_trajectory, simulate
+
+    theta = ParameterSpace.t6().sample(1, seed=3)[0]
+    folder = tmp_path_factory.mktemp("data")
+    return [str(save_trajectory(simulate(theta, controller=FlopController(heading=h), duration=0.4), folder / f"{k}.nc"))
+            for k, h in enumerate((0.0, 1.5708))]
+
+
+@pytest.mark.slow
+def test_identify_several_trajectory_files_make_one_objective(tmp_path, two_files, capsys) -> None:
+    out = tmp_path / "out"
+    args = _parser().parse_args(["identify", *two_files, "--method", "random", "--budget", "3", "--windows", "2",
+                                 "--out", str(out), "--no-progress"])
+    assert args.data == two_files and args.windows == 2
+    assert args.func(args) == 0
+    res = IdentificationResult.load(out / "result.nc")
+    assert res.n_evaluations == 3
+    assert res.config["objective"]["segments"] == ["t0/w0", "t0/w1", "t1/w0", "t1/w1"]
+    assert (out / "observed_vs_predicted.png").stat().st_size > 0
+
+
+def test_trajectory_usage_errors(tmp_path, two_files, capsys) -> None:
+    p = _parser()
+    args = p.parse_args(["identify", *two_files, "--toy", "push", "--out", str(tmp_path)])
+    assert args.func(args) == 2
+    assert "exactly one" in capsys.readouterr().err
+    args = p.parse_args(["identify", *two_files, "--windows", "0", "--out", str(tmp_path), "--no-progress"])
+    assert args.func(args) == 2
+    assert "windows must be an integer >= 1" in capsys.readouterr().err

@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from physics import (
-    FlopController, ModelOptions, ParameterError, ParameterSpace, PhysicsError, TrajectoryError,
-    TrajectoryFormatError, simulate,
+    STATUSES, ModelOptions, ParameterError, PhysicsError, TrajectoryError, TrajectoryFormatError,
 )
 
 # motor_friction acts on the motion (test_model) but its one-step signal (+3e-8 at +5 %) is far
@@ -87,11 +86,14 @@ def test_divergence_raises_alone_and_is_recorded_in_a_batch(space, flop_data):
         E(theta)
     seen = []
     result = E.evaluate_batch(np.stack([space.nominal, theta]), parallel=False,
-                              on_result=lambda k, e, st, sec, msg: seen.append((k, st)))
-    assert result.status == ("ok", "diverged")
-    assert seen == [(0, "ok"), (1, "diverged")]
+                              on_result=lambda k, e, st, sec, msg, parts: seen.append((k, st, parts.shape)))
+    assert result.status == ("ok", "diverged") and set(result.status) <= set(STATUSES)
+    assert seen == [(0, "ok", (3,)), (1, "diverged", (3,))]
     assert np.isfinite(result.errors[0]) and np.isnan(result.errors[1])
-    assert "diverged" in result.messages[1]
+    assert result.parts.shape == (2, 3) and np.isnan(result.parts[1]).all()
+    assert result.errors[0] == result.parts[0].sum() == E(space.nominal)
+    assert "diverged" in result.messages[1] and result.messages[0] == ""
+    assert (result.seconds > 0).all()
 
 
 @pytest.mark.slow
@@ -99,9 +101,10 @@ def test_batch_on_a_local_dask_cluster_matches_serial(space, flop_data):
     thetas = space.sample(4, seed=3)
     streamed = {}
     with TrajectoryError(flop_data.isel(time=slice(0, 120)), n_workers=2) as E:
-        parallel = E.evaluate_batch(thetas, on_result=lambda k, e, st, sec, msg: streamed.setdefault(k, (e, st)))
+        parallel = E.evaluate_batch(thetas, on_result=lambda k, e, st, sec, msg, parts: streamed.setdefault(k, (e, st)))
         serial = E.evaluate_batch(thetas, parallel=False)
         np.testing.assert_array_equal(parallel.errors, serial.errors)
+        np.testing.assert_array_equal(parallel.parts, serial.parts)
         np.testing.assert_array_equal(E(thetas), serial.errors)
         assert [e for e, _ in parallel] == serial.errors.tolist()
     assert parallel.status == ("ok",) * 4
@@ -118,7 +121,7 @@ def test_batch_on_an_existing_scheduler(space, flop_data):
     with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
         with TrajectoryError(data, address=cluster.scheduler_address) as E:
             remote = E.evaluate_batch(thetas)
-            assert E._cluster is None          # it used the given scheduler, started none
+            assert E._pool.cluster is None     # it used the given scheduler, started none
     np.testing.assert_array_equal(remote.errors, TrajectoryError(data).evaluate_batch(thetas, parallel=False).errors)
 
 
@@ -135,3 +138,79 @@ def test_validation(space, flop_data):
         TrajectoryError(flop_data.drop_vars("rest_length"), actuators="measured")(space.nominal)
     with pytest.raises(ParameterError, match="shape"):
         TrajectoryError(flop_data)(np.ones(3))
+    for bad in (0, -1, 1.5, True, "3"):
+        with pytest.raises(ParameterError, match=r"windows must be an integer >= 1.*windows=1"):
+            TrajectoryError(flop_data, windows=bad)
+    short = flop_data.isel(time=slice(0, 20)).copy(deep=True)
+    short["nodes"][:-1] = np.nan
+    with pytest.raises(TrajectoryFormatError, match="no sample can be predicted and compared"):
+        TrajectoryError(short)
+
+
+# ---------------------------------------------------------------------------- segments and parts
+@pytest.fixture(scope="module")
+def short_data(flop_data):
+    return flop_data.isel(time=slice(0, 61))
+
+
+def test_segments_split_the_compared_samples_into_nearly_equal_contiguous_groups(space, short_data):
+    E = TrajectoryError([short_data, short_data.isel(time=slice(0, 31))], windows=4)
+    assert E.segments == ("t0/w0", "t0/w1", "t0/w2", "t0/w3", "t1/w0", "t1/w1", "t1/w2", "t1/w3")
+    assert E.fingerprint()["segments"] == list(E.segments) and E.fingerprint()["windows"] == 4
+    assert E.fingerprint() != TrajectoryError([short_data, short_data.isel(time=slice(0, 31))]).fingerprint()
+    res = E.residuals(space.nominal)
+    assert len(res) == 8 and all(r.shape[1] == 36 for r in res)
+    sizes = [int(np.isfinite(r).all(axis=1).sum()) for r in res]
+    assert sizes == [15, 15, 15, 15, 8, 8, 7, 7]        # 60 and 30 compared samples
+    assert sum(r.shape[0] for r in res[:4]) == 60       # contiguous, covering samples 1..60 once
+    # fewer compared samples than windows: fewer segments
+    tiny = TrajectoryError(short_data.isel(time=slice(0, 4)), windows=5)
+    assert tiny.segments == ("t0/w0", "t0/w1", "t0/w2")
+    assert len(tiny.evaluate_parts(space.nominal)) == 3
+
+
+@pytest.mark.parametrize("loss, power", [("norm", 1), ("squared", 2)])
+def test_parts_sum_to_the_error_and_residuals_reproduce_it(space, short_data, loss, power):
+    theta = space.replace(damping=190.0)
+    E = TrajectoryError(short_data, loss=loss, horizon=7)
+    parts = E.evaluate_parts(theta)
+    per = E.per_sample(theta)[0]
+    assert parts.shape == (3,) and (parts > 0).all()
+    assert np.isclose(parts.sum(), np.nansum(per**power), rtol=1e-12)
+    assert E(theta) == parts.sum()
+    res = E.residuals(theta)
+    if loss == "squared":
+        assert np.isclose(sum(np.nansum(r**2) for r in res), E(theta), rtol=1e-12)
+    norms = np.concatenate([np.linalg.norm(r, axis=1) for r in res])
+    assert np.isclose(np.nansum(norms**power), E(theta), rtol=1e-12)
+    # node-major layout: residual row of sample i is (x_obs - x_pred)[i].ravel()
+    pred = E.predictions(theta)[0].values
+    np.testing.assert_allclose(res[0][0], (short_data["nodes"].values[1] - pred[1]).ravel())
+
+
+def test_residuals_have_nan_rows_where_nothing_was_compared(space, short_data):
+    holey = short_data.copy(deep=True)
+    holey["nodes"][20:22] = np.nan
+    E = TrajectoryError(holey, loss="squared", windows=2)
+    res = E.residuals(space.nominal)
+    rows = np.concatenate(res)
+    assert rows.shape == (60, 36)                        # samples 1..60 in time order
+    nan_rows = ~np.isfinite(rows).all(axis=1)
+    assert (np.isnan(rows[nan_rows])).all()              # a row is all NaN or all finite
+    assert nan_rows[19:21].all() and not nan_rows[:19].any()
+    assert np.isclose(sum(np.nansum(r**2) for r in res), E(space.nominal))
+
+
+def test_one_prediction_pass_per_evaluation(space, short_data, monkeypatch):
+    import physics.error as module
+    calls = []
+    original = module.predict
+
+    def counting(*args, **kwargs):
+        calls.append(args[2])
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, "predict", counting)
+    E = TrajectoryError(short_data, horizon=10, n_workers=0)
+    result = E.evaluate_batch(space.nominal[None], on_result=lambda *row: None)
+    assert result.status == ("ok",) and len(calls) == 6   # 6 windows of 10 samples, each run once

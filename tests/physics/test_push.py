@@ -55,7 +55,7 @@ def test_objective_is_zero_at_truth_and_on_the_ridge() -> None:
     assert obj([0.8, 0.4 / 0.64]) == pytest.approx(0.0, abs=1e-20)
     assert obj([1.2, 0.4]) > 0.01
     res = obj.evaluate_batch(np.array([[1.0, 0.4], [1.2, 0.4]]))
-    assert res[0][1] == "ok" and res[1][0] > 0.01
+    assert res.status == ("ok", "ok") and res.errors[1] > 0.01
     assert obj.n_observations == 8 and obj.noise_var is None
     assert PushError(J, S, noise_std=0.1).noise_var == pytest.approx(0.01)
     assert obj.fingerprint() == PushError(J, S).fingerprint() != PushError(J, S + 1e-9).fingerprint()
@@ -66,7 +66,39 @@ def test_fail_above_raises_physics_error_and_batch_marks_failed() -> None:
     obj = PushError(J, S, fail_above=1.3)
     with pytest.raises(PhysicsError, match="fail_above"):
         obj([1.4, 0.4])
-    assert obj.evaluate_batch(np.array([[1.4, 0.4]]))[0][1] == "failed"
+    seen = []
+    res = obj.evaluate_batch(np.array([[1.0, 0.4], [1.4, 0.4]]), on_result=lambda *row: seen.append(row))
+    assert res.status == ("ok", "diverged") and "fail_above" in res.messages[1]
+    assert np.isnan(res.errors[1]) and np.isnan(res.parts[1]).all() and res.parts.shape == (2, 2)
+    assert seen[0][1] == res.errors[0] and np.isnan(seen[1][1])
+    assert [(row[0], row[2]) for row in seen] == [(0, "ok"), (1, "diverged")]
+    np.testing.assert_array_equal(seen[0][5], res.parts[0])
+
+
+def test_parts_residuals_and_segments() -> None:
+    J, S = generate_push_data([1.0, 0.4], n=7, noise_std=0.05, seed=1)
+    obj = PushError(J, S)
+    theta = np.array([1.1, 0.5])
+    assert obj.segments == ("w0", "w1") and obj.fingerprint()["segments"] == ["w0", "w1"]
+    parts = obj.evaluate_parts(theta)
+    assert parts.shape == (2,) and obj(theta) == parts.sum()
+    assert np.isclose(parts.sum(), np.sum((S - simulate_push(theta, J)) ** 2), rtol=1e-14)
+    res = obj.residuals(theta)
+    assert [r.shape for r in res] == [(4, 1), (3, 1)]          # contiguous, sizes differ by at most one
+    np.testing.assert_allclose(np.concatenate(res)[:, 0], S - simulate_push(theta, J))
+    assert np.isclose(sum(np.sum(r**2) for r in res), obj(theta))
+    batch = obj.evaluate_batch(np.array([theta, [1.0, 0.4]]))
+    np.testing.assert_array_equal(batch.parts[0], parts)
+    assert batch.errors.tolist() == batch.parts.sum(axis=1).tolist()
+    assert PushError(J, S, windows=3).segments == ("w0", "w1", "w2")
+    assert PushError(J[:2], S[:2], windows=5).segments == ("w0", "w1")   # fewer pushes than windows
+    assert PushError(J, S, windows=1).fingerprint() != obj.fingerprint()
+
+
+def test_batch_records_out_of_box_rows_as_failed() -> None:
+    J, S = generate_push_data([1.0, 0.4], n=4, seed=0)
+    res = PushError(J, S).evaluate_batch(np.array([[2.0, 0.4]]))
+    assert res.status == ("failed",) and "ParameterError" in res.messages[0]
 
 
 @pytest.mark.parametrize(
@@ -84,6 +116,9 @@ def test_fail_above_raises_physics_error_and_batch_marks_failed() -> None:
         (lambda: PushError([1.0], [1.0])([2.0, 0.4]), "outside its bounds"),
         (lambda: PushError([1.0], [1.0])(np.ones((2, 2))), "evaluate_batch"),
         (lambda: push_space(mass=(1.0, 0.5)), "lower bound must be below"),
+        (lambda: PushError([1.0], [1.0], windows=0), r"windows must be an integer >= 1.*windows=1"),
+        (lambda: PushError([1.0], [1.0], windows=2.0), "windows must be an integer"),
+        (lambda: PushError([1.0], [1.0]).evaluate_batch(np.ones((2, 3))), r"thetas must have shape \(n, 2\)"),
     ],
 )
 def test_validation(call, match: str) -> None:

@@ -1,0 +1,199 @@
+"""The objective contract: what belief calls to learn E(θ), and what a batch of evaluations returns.
+
+An objective maps a parameter vector θ of shape ``(D,)`` (the order of ``space.names``) to an
+error E(θ) >= 0 that is a sum over S named *segments* (contiguous pieces of the data)::
+
+    E(θ) = Σ_{s=1..S} E_s(θ)          parts = (E_1, ..., E_S), shape (S,)
+
+and exposes the residual vectors behind each part, so that model criticism can look at where the
+model misses. The contract (:class:`Objective`, a structural ``typing.Protocol``):
+
+- ``space``: the :class:`~physics.parameters.ParameterSpace` of θ (D parameters);
+- ``segments``: ``tuple[str, ...]`` of S names, e.g. ``"t0/w1"`` (trajectory 0, window 1);
+- ``__call__(θ (D,)) -> float``: E(θ); raises :class:`~physics.errors.PhysicsError` when the
+  simulation diverges;
+- ``evaluate_parts(θ (D,)) -> (S,)``: the parts, ``parts.sum() == E(θ)``;
+- ``residuals(θ (D,)) -> list of S arrays (T_s, m)``: residual vectors x_obs - x_pred of each
+  segment in time order (NaN rows where nothing was compared); for a sum-of-squares error,
+  Σ_s nansum(r_s²) = E(θ);
+- ``evaluate_batch(θs (n, D), *, on_result=None) -> BatchResult``: failures are recorded with a
+  status, never raised; ``on_result(k, error, status, seconds, message, parts (S,))`` is called
+  for each row k as soon as it is done (completion order), the result keeps the input order;
+- ``n_observations``: K, the number of scalar residuals; ``noise_var``: σ² per residual when
+  known, else None; ``fingerprint()``: a JSON-able dict naming data and settings (with segments).
+
+Statuses (:data:`STATUSES`), one vocabulary for batches, journals and histories: ``"ok"``;
+``"diverged"`` = the simulation raised :class:`~physics.errors.PhysicsError`; ``"failed"`` = the
+objective returned NaN or inf, or raised another tensegrid error.
+
+This module imports numpy only (no simulator), so ``belief`` can type against it cheaply.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol, Sequence, runtime_checkable
+
+import numpy as np
+
+from physics.errors import ParameterError, PhysicsError, TensegridError
+
+if TYPE_CHECKING:
+    from physics.parameters import ParameterSpace
+
+__all__ = ["STATUSES", "BatchResult", "Objective", "OnResult", "Row", "evaluate_row"]
+
+STATUSES: tuple[str, ...] = ("ok", "diverged", "failed")
+
+#: on_result(k, error, status, seconds, message, parts (S,)): one finished row of a batch.
+OnResult = Callable[[int, float, str, float, str, np.ndarray], None]
+
+#: One evaluated row: (error, status, seconds, message, parts (S,)).
+Row = tuple[float, str, float, str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Results of evaluating n parameter vectors, in input order.
+
+    errors: (n,) E(θ_k) [units of E], NaN unless ok; status: n strings from :data:`STATUSES`;
+    seconds: (n,) wall time of each evaluation [s]; messages: n strings, "" when ok, else why;
+    parts: (n, S) per-segment errors, NaN rows unless ok, ``errors[k] == parts[k].sum()`` for ok
+    rows. Validated on construction (:class:`~physics.errors.ParameterError` otherwise).
+    Iterating yields ``(error, status)`` pairs.
+    """
+
+    errors: np.ndarray
+    status: tuple[str, ...]
+    seconds: np.ndarray
+    messages: tuple[str, ...]
+    parts: np.ndarray
+
+    def __post_init__(self) -> None:
+        errors = np.asarray(self.errors, dtype=float)
+        seconds = np.asarray(self.seconds, dtype=float)
+        parts = np.asarray(self.parts, dtype=float)
+        status, messages = tuple(self.status), tuple(self.messages)
+        n = len(status)
+        if errors.shape != (n,) or seconds.shape != (n,) or len(messages) != n:
+            raise ParameterError(
+                f"BatchResult: errors, seconds and messages must have one entry per status (n = {n}); got "
+                f"errors {errors.shape}, seconds {seconds.shape}, {len(messages)} messages. Build all from the same rows."
+            )
+        if parts.ndim != 2 or parts.shape[0] != n:
+            raise ParameterError(
+                f"BatchResult: parts must have shape (n, S) = ({n}, S), got {parts.shape}; give one row of "
+                "per-segment errors per evaluation (a single column (n, 1) when there are no segments)."
+            )
+        unknown = sorted({s for s in status if s not in STATUSES})
+        if unknown:
+            raise ParameterError(f"BatchResult: status must be one of {STATUSES}, got {unknown}; map other "
+                                 "outcomes to 'failed' and put the reason in messages.")
+        self._check_rows(errors, parts, status)
+        for name, value in (("errors", errors), ("seconds", seconds), ("parts", parts),
+                            ("status", status), ("messages", messages)):
+            object.__setattr__(self, name, value)
+
+    @staticmethod
+    def _check_rows(errors: np.ndarray, parts: np.ndarray, status: tuple[str, ...]) -> None:
+        ok = np.array([s == "ok" for s in status], dtype=bool)
+        if not np.isfinite(errors[ok]).all():
+            raise ParameterError("BatchResult: an 'ok' row has a NaN or inf error; mark it 'failed' instead.")
+        if np.isfinite(errors[~ok]).any() or np.isfinite(parts[~ok]).any():
+            raise ParameterError("BatchResult: rows that are not 'ok' must have NaN errors and NaN parts; got "
+                                 "finite values. Set them to NaN and keep the reason in messages.")
+        total = parts[ok].sum(axis=1)
+        if not np.allclose(total, errors[ok], rtol=1e-9, atol=1e-300):
+            raise ParameterError(f"BatchResult: errors must equal parts.sum(1) on 'ok' rows; got errors "
+                                 f"{errors[ok].tolist()} vs sums {total.tolist()}. Compute E as the sum of its parts.")
+
+    @classmethod
+    def from_rows(cls, rows: Sequence[Row], n_segments: int) -> "BatchResult":
+        """Assemble a result from n rows ``(error, status, seconds, message, parts (S,))``."""
+        parts = np.full((len(rows), int(n_segments)), np.nan)
+        for k, row in enumerate(rows):
+            parts[k] = row[4]
+        return cls(np.array([r[0] for r in rows], dtype=float), tuple(r[1] for r in rows),
+                   np.array([r[2] for r in rows], dtype=float), tuple(r[3] for r in rows), parts)
+
+    @property
+    def n_segments(self) -> int:
+        """S, the number of parts per row."""
+        return int(self.parts.shape[1])
+
+    def __len__(self) -> int:
+        return len(self.status)
+
+    def __iter__(self) -> Iterator[tuple[float, str]]:
+        """Rows as (error, status) pairs."""
+        return iter(zip(self.errors.tolist(), self.status))
+
+
+def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:
+    """One row of a batch: ``objective.evaluate_parts(theta)`` timed, its outcome mapped to a status.
+
+    Returns (E, "ok", seconds, "", parts (S,)) with E = parts.sum(); (NaN, "diverged", ...) on
+    :class:`PhysicsError`; (NaN, "failed", ...) on another :class:`TensegridError` or a NaN/inf
+    part. Parts are NaN unless ok. Other exceptions (bugs) propagate.
+    """
+    n_segments = len(objective.segments)
+    start = time.perf_counter()
+    try:
+        parts = np.asarray(objective.evaluate_parts(theta), dtype=float)
+    except PhysicsError as exc:
+        return math.nan, "diverged", time.perf_counter() - start, str(exc), np.full(n_segments, np.nan)
+    except TensegridError as exc:
+        return (math.nan, "failed", time.perf_counter() - start, f"{type(exc).__name__}: {exc}",
+                np.full(n_segments, np.nan))
+    seconds = time.perf_counter() - start
+    if parts.shape != (n_segments,) or not np.isfinite(parts).all():
+        return (math.nan, "failed", seconds, f"evaluate_parts returned {parts.tolist()!r} for {n_segments} "
+                "segments: not one finite value per segment", np.full(n_segments, np.nan))
+    return float(parts.sum()), "ok", seconds, "", parts
+
+
+@runtime_checkable
+class Objective(Protocol):
+    """Structural type of an objective E(θ) = Σ_s E_s(θ) (see the module docstring for the contract).
+
+    θ has shape (D,) with D = ``space.dim``; a batch has shape (n, D); parts have shape (S,) with
+    S = ``len(segments)``; ``residuals`` returns S arrays (T_s, m).
+    """
+
+    space: "ParameterSpace"
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Names of the S segments whose errors sum to E."""
+        ...
+
+    @property
+    def n_observations(self) -> int:
+        """K, the number of scalar residuals in E."""
+        ...
+
+    @property
+    def noise_var(self) -> float | None:
+        """Known observation noise variance σ² per residual (units of E), or None."""
+        ...
+
+    def __call__(self, theta: np.ndarray) -> float:
+        """E(θ) for θ (D,); raises PhysicsError if the simulation diverges."""
+        ...
+
+    def evaluate_parts(self, theta: np.ndarray) -> np.ndarray:
+        """Per-segment errors (S,) at θ (D,), summing to E(θ)."""
+        ...
+
+    def evaluate_batch(self, thetas: np.ndarray, *, on_result: OnResult | None = None) -> BatchResult:
+        """E and parts at each row of θs (n, D); failures recorded with a status, not raised."""
+        ...
+
+    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
+        """Residual vectors x_obs - x_pred per segment: S arrays (T_s, m), time order, NaN rows not compared."""
+        ...
+
+    def fingerprint(self) -> dict[str, Any]:
+        """JSON-able identity of data and settings, including ``segments``."""
+        ...

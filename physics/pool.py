@@ -1,0 +1,146 @@
+"""Parallel evaluation of a function over the rows of a batch on dask.distributed.
+
+:class:`DaskPool` maps ``fn(payload, item)`` over n items and hands each result to
+``on_result(k, result)`` as soon as it is done (completion order), so that a caller can journal
+it before the rest of the batch returns; the returned list keeps the input order. The payload
+(e.g. an objective holding its data) is shipped to the workers once (``scatter``, broadcast) and
+reused by later batches. Workers are a local cluster of single-threaded processes, started on
+first use and kept until :meth:`DaskPool.close`, or an existing scheduler's ``address``. With
+``n_workers=0`` and no address the pool runs the items serially in this process.
+
+dask.distributed is imported only when a cluster is needed.
+"""
+from __future__ import annotations
+
+import operator
+import weakref
+from typing import Any, Callable, Sequence
+
+from physics.errors import ParameterError, PoolError
+
+__all__ = ["DaskPool", "map_serial"]
+
+
+def map_serial(fn: Callable[[Any, Any], Any], payload: Any, items: Sequence[Any],
+               on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+    """``[fn(payload, item) for item in items]`` in this process, calling ``on_result(k, result)`` per item."""
+    out = []
+    for k, item in enumerate(items):
+        out.append(fn(payload, item))
+        if on_result is not None:
+            on_result(k, out[-1])
+    return out
+
+
+class DaskPool:
+    """A dask.distributed client for batches of ``fn(payload, item)``.
+
+    address: a running scheduler (e.g. ``"tcp://host:8786"``); default None starts a local cluster
+    of ``n_workers`` single-threaded worker processes on first use (``0`` = serial, no cluster).
+    warm_up: a picklable function run once on every worker after connecting (e.g. to load compiled
+    kernels, so that the first evaluation is not charged for it). Pickling a pool keeps only these
+    settings, so an object that owns a pool can be shipped to the workers.
+    """
+
+    def __init__(self, address: str | None = None, *, n_workers: int = 2,
+                 warm_up: Callable[[], None] | None = None) -> None:
+        try:
+            workers = -1 if isinstance(n_workers, bool) else operator.index(n_workers)
+        except TypeError:
+            workers = -1
+        if workers < 0:
+            raise ParameterError(f"n_workers must be an integer >= 0 (0 = serial in this process), got {n_workers!r}.")
+        self.address, self.n_workers, self.warm_up = address, workers, warm_up
+        self._client: Any = None
+        self._cluster: Any = None
+        self._remote: Any = None
+        self._payload: "weakref.ref[Any] | None" = None
+
+    @property
+    def parallel(self) -> bool:
+        """Whether :meth:`map_rows` uses dask (an address, or ``n_workers >= 1``)."""
+        return self.address is not None or self.n_workers > 0
+
+    @property
+    def cluster(self) -> Any:
+        """The local cluster this pool started, or None (serial, not started yet, or an address)."""
+        return self._cluster
+
+    def _get_client(self) -> Any:
+        if self._client is None:
+            from distributed import Client, LocalCluster
+            if self.address is not None:
+                self._client = Client(self.address)
+            else:
+                try:
+                    self._cluster = LocalCluster(n_workers=self.n_workers, threads_per_worker=1, processes=True,
+                                                 dashboard_address=None, silence_logs=40)
+                except RuntimeError as exc:
+                    raise PoolError(
+                        f"Could not start a local dask cluster of n_workers={self.n_workers} ({exc}). Worker "
+                        "processes are spawned and import your script: put the script's code under "
+                        "`if __name__ == \"__main__\":`, or evaluate serially with n_workers=0."
+                    ) from exc
+                self._client = Client(self._cluster)
+            if self.warm_up is not None:
+                self._client.run(self.warm_up)
+        return self._client
+
+    def _scattered(self, client: Any, payload: Any) -> Any:
+        """The payload's future on the workers; scattered once per payload object."""
+        if self._remote is None or self._payload is None or self._payload() is not payload:
+            self._remote = client.scatter(payload, broadcast=True, hash=False)
+            try:
+                self._payload = weakref.ref(payload)
+            except TypeError:          # not weak-referenceable: scatter again next time
+                self._payload = None
+        return self._remote
+
+    def map_rows(self, fn: Callable[[Any, Any], Any], payload: Any, items: Sequence[Any],
+                 on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+        """``[fn(payload, item) for item in items]`` on the workers (serially when not :attr:`parallel`).
+
+        fn must be picklable (a module-level function). on_result(k, result) is called for each item
+        k as soon as it is done (completion order); the list returned keeps the input order.
+        Exceptions raised by fn propagate (make fn record expected failures instead).
+        """
+        items = list(items)
+        if not self.parallel or not items:
+            return map_serial(fn, payload, items, on_result)
+        from distributed import as_completed
+        client = self._get_client()
+        remote = self._scattered(client, payload)
+        futures = client.map(fn, [remote] * len(items), items, pure=False)
+        index = {f.key: k for k, f in enumerate(futures)}
+        out: list[Any] = [None] * len(items)
+        for fut in as_completed(futures):
+            k = index[fut.key]
+            out[k] = fut.result()
+            if on_result is not None:
+                on_result(k, out[k])
+        return out
+
+    def close(self) -> None:
+        """Disconnect, and shut down the local cluster if this pool started one."""
+        if self._client is not None:
+            self._client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+        self._client = self._cluster = self._remote = self._payload = None
+
+    def __enter__(self) -> "DaskPool":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_client"] = state["_cluster"] = state["_remote"] = state["_payload"] = None
+        return state
+
+    def __del__(self) -> None:  # pragma: no cover - best effort at interpreter exit
+        try:
+            self.close()
+        except Exception:
+            pass
