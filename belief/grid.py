@@ -23,7 +23,7 @@ from scipy.stats import qmc
 
 from belief.errors import GridError
 
-__all__ = ["Grid", "SobolCandidates", "CandidateSet", "MAX_CELLS"]
+__all__ = ["Grid", "SobolCandidates", "CandidateSet", "MAX_CELLS", "candidates_from_config"]
 
 #: refuse grids above this many cells (memory of ``points`` and of the GP prediction)
 MAX_CELLS = 20_000_000
@@ -190,3 +190,13 @@ class SobolCandidates(CandidateSet):
 
     def config(self) -> dict[str, Any]:
         return {"kind": "sobol", "bounds": self.bounds.tolist(), "n": self.n, "seed": self.seed}
+
+
+def candidates_from_config(config: dict[str, Any]) -> CandidateSet:
+    """The Grid or SobolCandidates whose ``config()`` equals ``config`` (a saved belief's grid)."""
+    kind = config.get("kind") if isinstance(config, dict) else None
+    if kind == "grid":
+        return Grid(config["bounds"], points_per_dim=[int(k) for k in config["points_per_dim"]])
+    if kind == "sobol":
+        return SobolCandidates(config["bounds"], n=int(config["n"]), seed=int(config["seed"]))
+    raise GridError(f"unknown candidate-set kind {kind!r} in the saved configuration; expected 'grid' or 'sobol'.")

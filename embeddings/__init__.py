@@ -10,5 +10,6 @@ from embeddings.base import Decoder
 from embeddings.errors import EmbeddingError
 from embeddings.identity import Identity
 from embeddings.rembo import REMBO
+from embeddings.registry import decoder_from_config, register_decoder
 
-__all__ = ["Decoder", "EmbeddingError", "Identity", "REMBO"]
+__all__ = ["Decoder", "EmbeddingError", "Identity", "REMBO", "decoder_from_config", "register_decoder"]
