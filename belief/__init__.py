@@ -1,6 +1,7 @@
 """What we believe about θ: grids over a latent box, the GP surrogate (pyro), log expected
-improvement, the posterior P over the grid, the identification loop (Zhu et al. 2018,
-Algorithm 1) and its SQLite journal.
+improvement, the posterior P over the grid and its Belief object with verdicts, noise rules for
+data with model error, proposers and the identification driver (Zhu et al. 2018, Algorithm 1),
+and its SQLite journal.
 
 belief depends on embeddings (decoders) and physics (parameter spaces, errors); it never builds a
 simulator, it only calls an objective θ -> E(θ).
@@ -16,8 +17,13 @@ from belief.errors import (
     ObjectiveError,
     SurrogateError,
 )
-from belief.grid import Grid, SobolCandidates
+from belief.belief import Belief
+from belief.errors import BudgetWarning
+from belief.grid import Grid, SobolCandidates, candidates_from_config
 from belief.identify import identify, problem_fingerprint
+from belief.noise import NOISE_RULES, EffectiveSize, effective_size, noise_var_from_residuals, segment_discrepancy
+from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer
+from belief.verdicts import VERDICTS, VerdictConfig
 from belief.journal import Journal, Record
 from belief.posterior import (
     PosteriorConfig,
@@ -34,7 +40,9 @@ from belief.surrogate import GPSurrogate, SurrogateConfig
 
 __all__ = [
     "BeliefError", "BudgetError", "GridError", "JournalError", "ObjectiveError", "SurrogateError",
-    "Grid", "SobolCandidates",
+    "BudgetWarning", "Belief", "Grid", "SobolCandidates", "candidates_from_config",
+    "NOISE_RULES", "EffectiveSize", "effective_size", "noise_var_from_residuals", "segment_discrepancy",
+    "Proposal", "Proposer", "RandomProposer", "BOProposer", "VERDICTS", "VerdictConfig",
     "GPSurrogate", "SurrogateConfig",
     "log_h", "log_expected_improvement", "select_cells",
     "PosteriorConfig", "posterior_from_surrogate", "log_likelihood", "estimate_noise_var",

@@ -13,7 +13,8 @@ Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` an
 ``marginals.csv``, ``history.csv``, ``error_vs_evaluations.png``, ``posterior_marginals.png``
 (and ``posterior_2d.png`` for 2-D grids, ``observed_vs_predicted.png`` with rollouts at the
 nominal, best and posterior-mean θ of the first trajectory for trajectory data), and journals to
-``DIR/journal.sqlite`` so an interrupted run resumes when re-run.
+``DIR/journal.sqlite`` so an interrupted run resumes when re-run. When the data files carry the
+θ that generated them (simulated data do), the summary shows it next to P's intervals.
 """
 from __future__ import annotations
 
@@ -50,6 +51,11 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("--windows", type=int, default=3,
                    help="T6 error: contiguous segments per trajectory whose errors sum to E (default 3)")
     p.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
+    p.add_argument("--noise-rule", choices=["ess", "iid"], default="ess",
+                   help="sigma^2 when not given: 'ess' (effective residual count and discrepancy, default) or 'iid' "
+                        "(E_min / (K - d), for comparison); docs/identification.md")
+    p.add_argument("--discrepancy", type=float, default=0.05,
+                   help="ess rule: relative excess error that costs one nat at least (default 0.05)")
     p.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
@@ -86,71 +92,93 @@ def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, *, title: s
         plot_observed_vs_predicted(dataset, preds, path, title=title or "observed vs rollout predictions")
 
 
-def run_identify(args: argparse.Namespace) -> int:
-    """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
+def _data_truth(datasets: list[Any], space: Any) -> Any:
+    """θ that generated the data (the files' ``theta`` variable), if every file carries the same one."""
     import numpy as np
 
-    from belief.grid import Grid, SobolCandidates
-    from belief.identify import identify
-    from belief.plots import plot_error_trace, plot_marginals, plot_posterior_2d
-    from embeddings import REMBO, Identity
-    from physics.errors import TensegridError
-
-    if bool(args.data) == (args.toy is not None):
-        print("tensegrid identify: give either DATA.nc files or --toy push (exactly one).", file=sys.stderr)
-        return 2
-    truth = None
-    datasets: list[Any] = []
+    thetas = [ds["theta"] for ds in datasets if "theta" in ds]
+    if not datasets or len(thetas) != len(datasets):
+        return None
     try:
-        if args.toy == "push":
-            objective, truth = _push_objective(args.seed)
-        else:
-            from physics.error import TrajectoryError
-            from physics.trajectory import load_trajectory
+        first = np.asarray(thetas[0].sel(parameter=list(space.names)).values, dtype=float)
+    except (KeyError, ValueError):
+        return None
+    same = all(np.allclose(t.sel(parameter=list(space.names)).values, first) for t in thetas[1:])
+    return first if same else None
 
-            datasets = [load_trajectory(path) for path in args.data]
-            objective = TrajectoryError(datasets, horizon=1, loss=args.loss, windows=args.windows,
-                                        n_workers=args.workers if args.workers > 1 else 0)
-        space = objective.space
-        D = space.dim
-        if args.method == "rembo":
-            decoder = REMBO(space, dim=min(args.dim, D), seed=args.seed)
-            grid: Any = Grid.for_decoder(decoder, points_per_dim=args.points_per_dim)
-        else:
-            decoder = Identity(space)
-            grid = (Grid.for_decoder(decoder, points_per_dim=args.points_per_dim) if D <= 4
-                    else SobolCandidates.for_decoder(decoder, n=args.candidates, seed=args.seed))
-        os.makedirs(args.out, exist_ok=True)
-        journal = None if (args.journal or "").lower() == "none" else (args.journal or os.path.join(args.out, "journal.sqlite"))
+
+def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
+    """(objective, true θ or None, datasets) from the data files or the toy."""
+    if args.toy == "push":
+        objective, truth = _push_objective(args.seed)
+        return objective, truth, []
+    from physics.error import TrajectoryError
+    from physics.trajectory import load_trajectory
+
+    datasets = [load_trajectory(path) for path in args.data]
+    objective = TrajectoryError(datasets, horizon=1, loss=args.loss, windows=args.windows,
+                                n_workers=args.workers if args.workers > 1 else 0)
+    return objective, _data_truth(datasets, objective.space), datasets
+
+
+def _search(args: argparse.Namespace, space: Any) -> tuple[Any, Any]:
+    """(decoder, grid) of the method: REMBO on a grid, or the identity on a grid / Sobol candidates."""
+    from belief.grid import Grid, SobolCandidates
+    from embeddings import REMBO, Identity
+
+    if args.method == "rembo":
+        decoder = REMBO(space, dim=min(args.dim, space.dim), seed=args.seed)
+        return decoder, Grid.for_decoder(decoder, points_per_dim=args.points_per_dim)
+    decoder = Identity(space)
+    grid = (Grid.for_decoder(decoder, points_per_dim=args.points_per_dim) if space.dim <= 4
+            else SobolCandidates.for_decoder(decoder, n=args.candidates, seed=args.seed))
+    return decoder, grid
+
+
+def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> Any:
+    """identify() with the command line's options; a budget warning is printed, not raised."""
+    import warnings
+
+    from belief.errors import BudgetWarning
+    from belief.identify import identify
+    from belief.posterior import PosteriorConfig
+
+    journal = None if (args.journal or "").lower() == "none" else (args.journal or os.path.join(args.out, "journal.sqlite"))
+    config = PosteriorConfig(mode=args.posterior, noise_var=args.noise_var, noise_rule=args.noise_rule,
+                             discrepancy=args.discrepancy)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", BudgetWarning)
         result = identify(
             objective, decoder, grid, budget=args.budget, time_budget=args.time_budget, seed=args.seed,
             journal=journal, method="random" if args.method == "random" else "bo", q=args.q, workers=args.workers,
-            posterior=args.posterior, noise_var=args.noise_var, progress=not args.no_progress,
+            posterior_config=config, progress=not args.no_progress,
         )
-    except TensegridError as exc:
-        print(f"tensegrid identify: {exc}", file=sys.stderr)
-        return 2
-    finally:
-        close = getattr(locals().get("objective"), "close", None)
-        if callable(close):
-            close()
-    out = args.out
+    for w in caught:
+        if issubclass(w.category, BudgetWarning):
+            print(f"tensegrid identify: warning: {w.message}", file=sys.stderr)
+    return result
+
+
+def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth: Any, datasets: list[Any]) -> None:
+    """result.nc, summary.txt, marginals.csv, history.csv and the figures into ``args.out``."""
+    import numpy as np
+    import pandas as pd
+
+    from belief.plots import plot_error_trace, plot_marginals, plot_posterior_2d
+
+    out, space = args.out, decoder.space
     result.save(os.path.join(out, "result.nc"))
     with open(os.path.join(out, "summary.txt"), "w") as fh:
-        fh.write(result.summary() + "\n")
+        fh.write(result.summary(truth=truth) + "\n")
     result.marginals.to_dataframe().to_csv(os.path.join(out, "marginals.csv"))
     h = result.history
     hist_tab = {"evaluation": h["evaluation"].values, "error": h["error"].values, "seconds": h["seconds"].values,
                 "status": h["status"].values}
-    for j, name in enumerate(space.names):
-        hist_tab[name] = h["theta"].values[:, j]
-    import pandas as pd
-
+    hist_tab.update({name: h["theta"].values[:, j] for j, name in enumerate(space.names)})
     pd.DataFrame(hist_tab).to_csv(os.path.join(out, "history.csv"), index=False)
     plot_error_trace(result, os.path.join(out, "error_vs_evaluations.png"), label=f"best so far ({args.method})")
-    theta_cells = decoder.decode(np.asarray(grid.points))
-    plot_marginals(result.posterior, theta_cells, space, os.path.join(out, "posterior_marginals.png"),
-                   marginals=result.marginals, truth=truth)
+    plot_marginals(result.posterior, decoder.decode(np.asarray(grid.points)), space,
+                   os.path.join(out, "posterior_marginals.png"), marginals=result.marginals, truth=truth)
     if result.posterior.ndim == 2 and result.posterior.dims == ("z0", "z1"):
         plot_posterior_2d(result.posterior, os.path.join(out, "posterior_2d.png"), decoder=decoder,
                           evaluated=h["z"].values, truth=truth)
@@ -158,6 +186,29 @@ def run_identify(args: argparse.Namespace) -> int:
         title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
                  if len(datasets) > 1 else "")
         _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
-    print(result.summary())
-    print(f"wrote {out}/result.nc, summary.txt, marginals.csv, history.csv and figures")
+
+
+def run_identify(args: argparse.Namespace) -> int:
+    """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
+    from physics.errors import TensegridError
+
+    if bool(args.data) == (args.toy is not None):
+        print("tensegrid identify: give either DATA.nc files or --toy push (exactly one).", file=sys.stderr)
+        return 2
+    objective = None
+    try:
+        objective, truth, datasets = _objective(args)
+        decoder, grid = _search(args, objective.space)
+        os.makedirs(args.out, exist_ok=True)
+        result = _run(args, objective, decoder, grid)
+    except TensegridError as exc:
+        print(f"tensegrid identify: {exc}", file=sys.stderr)
+        return 2
+    finally:
+        close = getattr(objective, "close", None)
+        if callable(close):
+            close()
+    _write(args, result, decoder, grid, truth, datasets)
+    print(result.summary(truth=truth))
+    print(f"wrote {args.out}/result.nc, summary.txt, marginals.csv, history.csv and figures")
     return 0

@@ -1,6 +1,6 @@
 """SQLite journal of an identification run (stdlib ``sqlite3``).
 
-Every evaluation (batch, cell, z, θ, E, seconds, status, message) is committed (``synchronous=FULL``)
+Every evaluation (batch, cell, z, θ, E, seconds, status, message, segment errors) is committed (``synchronous=FULL``)
 before the next one starts, so a run killed at any point loses at most the evaluation in flight.
 The journal also stores the problem's *fingerprint* (parameter space, decoder, grid, seed, method,
 batch size, initial design size, surrogate options, objective fingerprint when the objective has
@@ -23,16 +23,18 @@ from dataclasses import dataclass
 from typing import Any, Iterator
 
 from belief.errors import JournalError
+from physics.objective import STATUSES
 
 __all__ = ["Journal", "Record"]
 
-_SCHEMA_VERSION = 1
+_SCHEMA_VERSION = 2
 
 
 @dataclass(frozen=True)
 class Record:
-    """One evaluation: ``z`` (d), ``theta`` (D), error E (NaN if failed), wall ``seconds``,
-    ``status`` ("ok" or "failed"), ``message`` (why it failed), ``batch`` and ``cell`` indices."""
+    """One evaluation: ``z`` (d), ``theta`` (D), error E (NaN unless ok), wall ``seconds``,
+    ``status`` (physics.objective.STATUSES: "ok", "diverged", "failed"), ``message`` (why not ok),
+    ``batch`` and ``cell`` indices, ``parts`` (S,) the errors of the objective's segments (NaN unless ok)."""
 
     batch: int
     cell: int
@@ -42,10 +44,11 @@ class Record:
     seconds: float
     status: str
     message: str = ""
+    parts: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
-        if self.status not in ("ok", "failed"):
-            raise JournalError(f"Record.status must be 'ok' or 'failed', got {self.status!r}.")
+        if self.status not in STATUSES:
+            raise JournalError(f"Record.status must be one of {STATUSES}, got {self.status!r}.")
 
 
 def _canonical(obj: Any) -> str:
@@ -74,7 +77,7 @@ class Journal:
             self._con.execute(
                 "CREATE TABLE IF NOT EXISTS evaluations (idx INTEGER PRIMARY KEY, batch INTEGER NOT NULL, "
                 "cell INTEGER NOT NULL, z TEXT NOT NULL, theta TEXT NOT NULL, error REAL, "
-                "seconds REAL NOT NULL, status TEXT NOT NULL, message TEXT NOT NULL)"
+                "seconds REAL NOT NULL, status TEXT NOT NULL, message TEXT NOT NULL, parts TEXT NOT NULL)"
             )
             row = self._con.execute("SELECT value FROM meta WHERE key='fingerprint'").fetchone()
         except sqlite3.DatabaseError as exc:
@@ -84,6 +87,13 @@ class Journal:
                 self._con.execute("INSERT INTO meta VALUES ('fingerprint', ?)", (_canonical(self.fingerprint),))
                 self._con.execute("INSERT INTO meta VALUES ('schema', ?)", (str(_SCHEMA_VERSION),))
         else:
+            schema = self._con.execute("SELECT value FROM meta WHERE key='schema'").fetchone()
+            if schema is None or int(schema[0]) != _SCHEMA_VERSION:
+                self._con.close()
+                raise JournalError(
+                    f"journal {self.path!r} has schema {None if schema is None else schema[0]}, this version writes "
+                    f"{_SCHEMA_VERSION} (segment errors per evaluation); use a new journal path."
+                )
             stored = json.loads(row[0])
             if _canonical(stored) != _canonical(self.fingerprint):
                 keys = _diff(stored, self.fingerprint)
@@ -110,12 +120,13 @@ class Journal:
     def records(self) -> list[Record]:
         """All committed evaluations in order."""
         rows = self._con.execute(
-            "SELECT batch, cell, z, theta, error, seconds, status, message FROM evaluations ORDER BY idx"
+            "SELECT batch, cell, z, theta, error, seconds, status, message, parts FROM evaluations ORDER BY idx"
         ).fetchall()
         return [
             Record(int(b), int(c), tuple(json.loads(z)), tuple(json.loads(t)),
-                   float("nan") if e is None else float(e), float(s), str(st), str(msg))
-            for b, c, z, t, e, s, st, msg in rows
+                   float("nan") if e is None else float(e), float(s), str(st), str(msg),
+                   tuple(float("nan") if v is None else float(v) for v in json.loads(pa)))
+            for b, c, z, t, e, s, st, msg, pa in rows
         ]
 
     def __iter__(self) -> Iterator[Record]:
@@ -129,11 +140,12 @@ class Journal:
         err = None if not math.isfinite(record.error) else float(record.error)
         with self._transaction():
             self._con.execute(
-                "INSERT INTO evaluations (batch, cell, z, theta, error, seconds, status, message) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                "INSERT INTO evaluations (batch, cell, z, theta, error, seconds, status, message, parts) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (record.batch, record.cell, json.dumps([float(v) for v in record.z]),
                  json.dumps([float(v) for v in record.theta]), err, float(record.seconds),
-                 record.status, record.message),
+                 record.status, record.message,
+                 json.dumps([float(v) if math.isfinite(v) else None for v in record.parts])),
             )
 
     def close(self) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from belief import SobolCandidates, identify
+from belief import BudgetWarning, SobolCandidates, identify
 from embeddings import Identity
 from physics import FlopController, ParameterSpace, TrajectoryError, simulate
 
@@ -17,7 +17,8 @@ def test_t6_identification_beats_nominal_and_concentrates_near_the_truth():
     E = TrajectoryError(data, loss="squared", n_workers=0)
     decoder = Identity(space)
     candidates = SobolCandidates.for_decoder(decoder, n=2048, seed=0)
-    result = identify(E, decoder, candidates, budget=30, seed=0, progress=False)
+    with pytest.warns(BudgetWarning, match="a GP needs about 10 per dimension"):
+        result = identify(E, decoder, candidates, budget=30, seed=0, progress=False)
 
     assert E(result.best_theta) < E(space.nominal)
     # mass near θ*: the posterior-weighted distance (unit cube) to θ* is below the prior's
@@ -26,7 +27,11 @@ def test_t6_identification_beats_nominal_and_concentrates_near_the_truth():
     p = result.posterior.values.ravel()
     prior = np.full_like(p, 1.0 / p.size)
     assert p @ dist < prior @ dist
-    # rod_length is seen directly in the node distances: it must be identified, near the truth
+    # rod_length is seen directly in the node distances: narrowed near the truth. 30 evaluations in
+    # 15-D leave most of P on cells nobody evaluated, so the verdict is at most "weakly identified"
+    # and the run says the budget is short.
     rod = result.marginals.sel(parameter="rod_length")
-    assert bool(rod["identified"])
-    assert abs(float(rod["mean"]) - theta_star[space.index("rod_length")]) < 0.02
+    truth = theta_star[space.index("rod_length")]
+    assert str(rod["verdict"].values) != "not identified"
+    assert abs(float(rod["mean"]) - truth) < 0.02 and float(rod["lower"]) <= truth <= float(rod["upper"])
+    assert "30 successful evaluations for a 15-dimensional search" in result.belief.attrs["budget_warning"]

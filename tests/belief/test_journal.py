@@ -116,7 +116,7 @@ class _StreamingBatch:
                 raise KeyboardInterrupt
             rows[k] = (self.obj(thetas[k]), "ok")
             if on_result is not None:
-                on_result(k, rows[k][0], "ok", 0.0, "")
+                on_result(k, rows[k][0], "ok", 0.0, "", (rows[k][0],))
         return rows
 
 

@@ -1,0 +1,142 @@
+"""From the evaluations to a :class:`~belief.belief.Belief`: σ², P, segment posteriors, verdicts.
+
+::
+
+    1  σ²: given, else the objective's known noise, else the noise rule (belief.noise) on the
+       residuals of the best evaluated θ (one extra evaluation of the objective)
+    2  P over the cells from the GP fitted to all evaluations (belief.posterior)
+    3  the verified mass of P: Σ P where the GP knows the log-likelihood to 1 nat (belief.verdicts)
+    4  one posterior per segment of E (time windows, trajectories) from a GP fitted to that
+       segment's errors, with that segment's own σ²; disjoint narrow intervals = conflict
+    5  marginals of P and a verdict per parameter (belief.verdicts.decide)
+
+Objectives without ``residuals`` fall back to the "iid" rule; objectives without segments skip
+step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff and the budget warning.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from belief.belief import Belief
+from belief.errors import BeliefError, BudgetWarning
+from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
+from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
+from belief.surrogate import GPSurrogate, SurrogateConfig
+from belief.verdicts import VerdictConfig, budget_warning, decide, loglik_sd, segment_conflicts, verified_mass
+from physics.errors import PhysicsError
+
+__all__ = ["NoiseLevel", "noise_level", "assess"]
+
+
+@dataclass(frozen=True)
+class NoiseLevel:
+    """σ² of the whole E and of each segment (None in minimizer mode), with how it was set."""
+
+    total: float | None
+    segments: tuple[float, ...] = ()
+    rule: str = ""
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def _residuals(objective: Any, theta: np.ndarray) -> list[np.ndarray] | None:
+    fn = getattr(objective, "residuals", None)
+    if not callable(fn):
+        return None
+    try:
+        return [np.asarray(r, dtype=float) for r in fn(theta)]
+    except PhysicsError:
+        return None
+
+
+def noise_level(objective: Any, config: PosteriorConfig, errors: np.ndarray, parts: np.ndarray,
+                best_theta: np.ndarray, *, dim: int) -> NoiseLevel:
+    """σ² of E and of each of its S segments (step 1 of the module docstring).
+
+    ``errors``: E of the successful evaluations (n,); ``parts``: their segment errors (n x S).
+    """
+    S = parts.shape[1]
+    if config.mode != "likelihood":
+        return NoiseLevel(None, (), "none (minimizer mode)")
+    given = config.noise_var if config.noise_var is not None else getattr(objective, "noise_var", None)
+    if given is not None:
+        rule = "given" if config.noise_var is not None else "known by the objective"
+        return NoiseLevel(float(given), (float(given),) * S, rule)
+    K = int(getattr(objective, "n_observations", 1))
+    res = _residuals(objective, best_theta) if config.noise_rule == "ess" else None
+    if res is None or len(res) != S:
+        why = "iid" if config.noise_rule == "iid" else "iid (the objective gives no residuals per segment)"
+        total = iid_noise_var(errors, n_observations=K, dim=dim)
+        segs = tuple(iid_noise_var(parts[:, s], n_observations=max(K // S, 1), dim=dim) for s in range(S))
+        return NoiseLevel(total, segs, why, {"n_observations": K})
+    d_seg = segment_discrepancy(parts)
+    delta = max(config.discrepancy, d_seg)
+    total, size = noise_var_from_residuals(errors, res, dim=dim, discrepancy=delta)
+    segs = tuple(noise_var_from_residuals(parts[:, s], [res[s]], dim=dim, discrepancy=delta)[0] for s in range(S))
+    return NoiseLevel(total, segs, "ess", {"n_observations": size.n, "n_effective": size.n_eff,
+                                          "tau": list(size.tau), "coords": list(size.coords),
+                                          "discrepancy": delta, "segment_discrepancy": d_seg})
+
+
+def _segment_marginals(records: Sequence[Any], grid: Any, theta_cells: np.ndarray, space: Any, segments: Sequence[str],
+                       parts: np.ndarray, noise: NoiseLevel, failed: np.ndarray, *, surrogate: SurrogateConfig,
+                       config: PosteriorConfig, seed: int) -> dict[str, Any]:
+    """Marginals of P_s per segment s (step 4), from a GP on that segment's errors (``parts`` n x S)."""
+    Z = np.array([r.z for r in records], dtype=float)
+    out = {}
+    for s, name in enumerate(segments):
+        model = GPSurrogate(grid.bounds, config=surrogate).fit(Z, parts[:, s])
+        nv = noise.segments[s] if noise.segments else None
+        P_s = posterior_from_surrogate(model, grid, config=config, noise_var=nv, failed=failed, seed=seed + s + 1)
+        out[name] = marginals(P_s, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
+    return out
+
+
+def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], model: GPSurrogate, *,
+           config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
+           verdict_config: VerdictConfig | None = None) -> Belief:
+    """The Belief of an identification run (module docstring).
+
+    ``records``: every evaluation (journal Records, ``status`` "ok" for successes, ``parts`` per
+    segment); ``model``: the GP fitted to all evaluations; ``seed``: minimizer-mode sampling.
+    """
+    vcfg = verdict_config or VerdictConfig(identified_ratio=config.identified_ratio)
+    ok = [r for r in records if r.status == "ok"]
+    if len(ok) < 2:
+        raise BeliefError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
+    space = decoder.space
+    errors = np.array([r.error for r in ok])
+    best = ok[int(np.argmin(errors))]
+    segments = tuple(getattr(objective, "segments", ()) or ())
+    parts = np.array([r.parts for r in ok], dtype=float) if segments and all(len(r.parts) == len(segments) for r in ok) \
+        else errors[:, None]
+    if parts.shape[1] != len(segments):
+        segments = ("all",)
+    noise = noise_level(objective, config, errors, parts, np.asarray(best.theta), dim=decoder.dim)
+    failed = np.zeros(grid.size, dtype=bool)
+    failed[[r.cell for r in records if r.status != "ok"]] = True
+    pred = model.predict(grid.points)
+    P = posterior_from_surrogate(model, grid, config=config, noise_var=noise.total, failed=failed, seed=seed,
+                                 prediction=pred)
+    p = P.values.ravel()
+    theta_cells = decoder.decode(np.asarray(grid.points))
+    vmass = 1.0
+    if noise.total is not None:
+        vmass = verified_mass(p, loglik_sd(*pred, shift=model.shift_, noise_var=noise.total), max_sd=vcfg.max_loglik_sd)
+    conflicts: dict[str, str] = {}
+    if len(segments) >= 2:
+        seg = _segment_marginals(ok, grid, theta_cells, space, segments, parts, noise, failed, surrogate=surrogate,
+                                 config=config, seed=seed)
+        conflicts = segment_conflicts(seg, identified_ratio=vcfg.identified_ratio)
+    marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
+    verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts=conflicts, config=vcfg)
+    warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim)
+    if warn:
+        warnings.warn(warn, BudgetWarning, stacklevel=3)
+    attrs = {"mode": config.mode, "level": config.level, "noise_var": noise.total, "noise_rule": noise.rule,
+             "noise": noise.info, "segments": list(segments), "verified_mass": vmass, "n_evaluations": len(records),
+             "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn}
+    return Belief.from_posterior(P, decoder, grid, verdicts=verdicts, reasons=reasons, attrs=attrs)

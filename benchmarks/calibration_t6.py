@@ -1,0 +1,159 @@
+"""Calibration of the verdicts on the T6: do identified intervals hold the truth?
+
+For each problem, θ* is drawn uniformly from the ±10 % box and a flop (3 s, 100 Hz, heading drawn
+per problem) is recorded with 1 mm sensor noise, by one of two data-generating models:
+
+- ``own``: this project's model, as the identifier assumes it;
+- ``mismatch``: a deliberately different model the identifier is not told about: physics step
+  0.5 ms instead of 1 ms, ground friction 0.8 instead of 0.5, rod spin damping 0.5 instead of
+  2 N·m·s, and a slower, stiffer motor driver (kp 5 /s instead of 10, kv 0.1 instead of 0.05).
+
+Identification: full-space BO (Identity decoder, 4096 Sobol candidates, seed = problem) with the
+likelihood posterior. Each problem runs once with the largest budget and a journal; smaller
+budgets are the same run's first evaluations, replayed from the journal (identify is deterministic,
+so a shorter run is exactly a prefix).
+
+Per scenario and budget it prints: parameters flagged identified, how many of their 90 % intervals
+hold θ* (target >= 90 %), the largest distance from θ* to an identified interval in interval
+widths (target <= 3), and the median interval width per parameter in % of the prior box.
+
+    .venv/bin/python benchmarks/calibration_t6.py                      # 20 problems, budgets 40 and 120
+    .venv/bin/python benchmarks/calibration_t6.py --problems 4 --budgets 30 --rule iid   # quick, old rule
+    .venv/bin/python benchmarks/calibration_t6.py --bias --problems 3 --budgets 60       # the shared bias
+
+``--bias`` prints, per problem, how much worse θ* fits each of 6 segments than the best evaluated θ
+(in % of that segment's error): a bias all segments share is what the discrepancy floor δ_0 of
+the "ess" noise rule covers (docs/identification.md).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from dataclasses import dataclass
+
+import numpy as np
+
+from belief import PosteriorConfig, SobolCandidates, identify
+from embeddings import Identity
+from physics import FlopController, ModelOptions, MotorGains, ParameterSpace, TrajectoryError, simulate
+
+SCENARIOS = ("own", "mismatch")
+MISMATCH = ModelOptions(dt=5e-4, friction=0.8, spin_damping=0.5, motor=MotorGains(kp=5.0, kv=0.1))
+
+
+@dataclass
+class Outcome:
+    """One identification: per parameter the truth, interval (lower, upper) and verdict."""
+
+    truth: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    verdict: list[str]
+
+
+def problem_data(seed: int, scenario: str, *, duration: float = 3.0, noise: float = 1e-3):
+    """(θ*, flop trajectory) of problem ``seed`` under ``scenario``."""
+    space = ParameterSpace.t6()
+    theta = space.sample(1, seed=seed)[0]
+    heading = float(np.random.default_rng([seed, 7]).uniform(-np.pi, np.pi))
+    options = MISMATCH if scenario == "mismatch" else None
+    data = simulate(theta, controller=FlopController(heading=heading), duration=duration, options=options,
+                    noise=noise, seed=seed)
+    return theta, data
+
+
+def identify_problem(seed: int, scenario: str, budgets: list[int], *, rule: str = "ess", candidates: int = 4096,
+                     duration: float = 3.0, workdir: str | None = None) -> dict[int, Outcome]:
+    """Outcomes of problem ``seed`` at each budget (one run, smaller budgets replayed from its journal)."""
+    theta, data = problem_data(seed, scenario, duration=duration)
+    space = ParameterSpace.t6()
+    objective = TrajectoryError(data, loss="squared", n_workers=0)
+    decoder = Identity(space)
+    grid = SobolCandidates.for_decoder(decoder, n=candidates, seed=seed)
+    cfg = PosteriorConfig(noise_rule=rule)
+    out: dict[int, Outcome] = {}
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        journal = os.path.join(tmp, "run.sqlite")
+        for budget in sorted(budgets, reverse=True):
+            res = identify(objective, decoder, grid, budget=budget, seed=seed, journal=journal, progress=False,
+                           posterior_config=cfg)
+            m = res.belief.marginals()
+            out[budget] = Outcome(theta, m["lower"].values, m["upper"].values, [str(v) for v in m["verdict"].values])
+    return out
+
+
+def shared_bias(seed: int, scenario: str, budget: int, *, windows: int = 6) -> np.ndarray:
+    """(E_s(θ*) − E_s(θ̂)) / E_s(θ̂) per segment s (%), θ̂ the best of ``budget`` BO evaluations."""
+    theta, data = problem_data(seed, scenario)
+    space = ParameterSpace.t6()
+    objective = TrajectoryError(data, loss="squared", n_workers=0, windows=windows)
+    decoder = Identity(space)
+    grid = SobolCandidates.for_decoder(decoder, n=4096, seed=seed)
+    res = identify(objective, decoder, grid, budget=budget, seed=seed, progress=False, posterior=None)
+    best = objective.evaluate_parts(res.best_theta.values)
+    return 100.0 * (objective.evaluate_parts(theta) - best) / best
+
+
+def score(outcomes: list[Outcome]) -> dict[str, float]:
+    """Identified count, coverage of identified intervals, worst miss in widths, mean identified per problem."""
+    n_id = hit = 0
+    worst = 0.0
+    for o in outcomes:
+        for j, v in enumerate(o.verdict):
+            if v != "identified":
+                continue
+            n_id += 1
+            width = max(o.upper[j] - o.lower[j], 1e-300)
+            miss = max(o.lower[j] - o.truth[j], o.truth[j] - o.upper[j], 0.0)
+            hit += miss == 0.0
+            worst = max(worst, miss / width)
+    return {"identified": n_id, "covered": hit, "coverage": hit / n_id if n_id else float("nan"),
+            "worst_widths": worst, "per_problem": n_id / max(len(outcomes), 1)}
+
+
+def width_table(outcomes: list[Outcome]) -> np.ndarray:
+    """Median 90 % interval width per parameter, in % of the prior box (D,)."""
+    space = ParameterSpace.t6()
+    w = np.array([(o.upper - o.lower) / (space.upper - space.lower) for o in outcomes])
+    return 100.0 * np.median(w, axis=0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--problems", type=int, default=20)
+    p.add_argument("--budgets", type=int, nargs="+", default=[40, 120])
+    p.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
+    p.add_argument("--rule", choices=["ess", "iid"], default="ess", help="noise rule of the likelihood posterior")
+    p.add_argument("--first-seed", type=int, default=100)
+    p.add_argument("--bias", action="store_true", help="print the per-segment excess error of the truth instead")
+    args = p.parse_args(argv)
+    space = ParameterSpace.t6()
+    from tqdm.auto import tqdm
+
+    if args.bias:
+        for scenario in args.scenarios:
+            for k in range(args.problems):
+                excess = shared_bias(args.first_seed + k, scenario, max(args.budgets))
+                print(f"{scenario:9s} problem {args.first_seed + k}: E_s(truth) exceeds E_s(best) by "
+                      + ", ".join(f"{v:+.1f}%" for v in excess), flush=True)
+        return 0
+
+    for scenario in args.scenarios:
+        runs = [identify_problem(args.first_seed + k, scenario, args.budgets, rule=args.rule)
+                for k in tqdm(range(args.problems), desc=scenario)]
+        for budget in sorted(args.budgets):
+            outs = [r[budget] for r in runs]
+            s = score(outs)
+            print(f"{scenario:9s} rule={args.rule} budget={budget:4d} problems={len(outs)}: identified {s['identified']} "
+                  f"({s['per_problem']:.2f} per problem), covered {s['covered']} = {s['coverage']:.0%}, "
+                  f"worst miss {s['worst_widths']:.2f} widths", flush=True)
+            widths = width_table(outs)
+            print("    median 90% width, % of box: " + ", ".join(
+                f"{n} {w:.0f}" for n, w in zip(space.names, widths)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
