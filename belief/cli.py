@@ -136,7 +136,7 @@ def _search(args: argparse.Namespace, space: Any) -> tuple[Any, Any]:
 
 
 def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> Any:
-    """identify() with the command line's options; a budget warning is printed, not raised."""
+    """identify() with the command line's options; a budget warning goes into the summary, not stderr."""
     import warnings
 
     from belief.errors import BudgetWarning
@@ -146,16 +146,13 @@ def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> A
     journal = None if (args.journal or "").lower() == "none" else (args.journal or os.path.join(args.out, "journal.sqlite"))
     config = PosteriorConfig(mode=args.posterior, noise_var=args.noise_var, noise_rule=args.noise_rule,
                              discrepancy=args.discrepancy)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", BudgetWarning)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BudgetWarning)      # the summary prints it
         result = identify(
             objective, decoder, grid, budget=args.budget, time_budget=args.time_budget, seed=args.seed,
             journal=journal, method="random" if args.method == "random" else "bo", q=args.q, workers=args.workers,
             posterior_config=config, progress=not args.no_progress,
         )
-    for w in caught:
-        if issubclass(w.category, BudgetWarning):
-            print(f"tensegrid identify: warning: {w.message}", file=sys.stderr)
     return result
 
 
