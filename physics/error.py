@@ -32,14 +32,13 @@ process per worker, started on first use and reused) or an existing scheduler's 
 from __future__ import annotations
 
 import hashlib
-import operator
 from typing import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
 
 from physics.errors import ParameterError, TrajectoryFormatError
-from physics.objective import BatchResult, OnResult, Row, evaluate_row
+from physics.objective import BatchResult, OnResult, Row, check_windows, evaluate_row
 from physics.parameters import ParameterSpace
 from physics.pool import DaskPool, map_serial
 from physics.predictor import ObservedStates, actuator_states, predict
@@ -52,17 +51,6 @@ __all__ = ["TrajectoryError", "BatchResult"]
 def _warm_up() -> None:
     """Load the compiled kernels in a worker, so the first evaluation is not charged for it."""
     T6Model().step(None, n=2)
-
-
-def _check_windows(windows: int) -> int:
-    try:
-        value = 0 if isinstance(windows, bool) else operator.index(windows)
-    except TypeError:
-        value = 0
-    if value < 1:
-        raise ParameterError(f"windows must be an integer >= 1 (contiguous segments per trajectory), got {windows!r}; "
-                             "pass windows=1 for one segment per trajectory.")
-    return value
 
 
 class TrajectoryError:
@@ -96,7 +84,7 @@ class TrajectoryError:
         if loss not in ("norm", "squared"):
             raise ParameterError(f"loss must be 'norm' (Σ‖r‖, the paper's) or 'squared' (Σ‖r‖²), got {loss!r}.")
         self.horizon, self.actuators, self.loss = horizon, actuators, loss
-        self.windows = _check_windows(windows)
+        self.windows = check_windows(windows, "segments per trajectory")
         self.options = options or ModelOptions()
         self._pool = DaskPool(address, n_workers=n_workers, warm_up=_warm_up)
         self._observed = [ObservedStates(ds) for ds in self.trajectories]

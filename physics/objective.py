@@ -31,6 +31,7 @@ This module imports numpy only (no simulator), so ``belief`` can type against it
 from __future__ import annotations
 
 import math
+import operator
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol, Sequence, runtime_checkable
@@ -42,7 +43,7 @@ from physics.errors import ParameterError, PhysicsError, TensegridError
 if TYPE_CHECKING:
     from physics.parameters import ParameterSpace
 
-__all__ = ["STATUSES", "BatchResult", "Objective", "OnResult", "Row", "evaluate_row"]
+__all__ = ["STATUSES", "BatchResult", "Objective", "OnResult", "Row", "evaluate_row", "check_windows"]
 
 STATUSES: tuple[str, ...] = ("ok", "diverged", "failed")
 
@@ -128,6 +129,18 @@ class BatchResult:
     def __iter__(self) -> Iterator[tuple[float, str]]:
         """Rows as (error, status) pairs."""
         return iter(zip(self.errors.tolist(), self.status))
+
+
+def check_windows(windows: Any, what: str) -> int:
+    """``windows`` as an int >= 1 (segments per data set; ``what`` names what they split), else ParameterError."""
+    try:
+        value = 0 if isinstance(windows, bool) else operator.index(windows)
+    except TypeError:
+        value = 0
+    if value < 1:
+        raise ParameterError(f"windows must be an integer >= 1 (contiguous {what}), got {windows!r}; "
+                             "pass windows=1 for a single segment.")
+    return value
 
 
 def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:

@@ -24,13 +24,12 @@ above over group j, and the residuals of group j are the column ``S_obs_k - S(th
 from __future__ import annotations
 
 import hashlib
-import operator
 from typing import Sequence
 
 import numpy as np
 
 from physics.errors import ParameterError, PhysicsError
-from physics.objective import BatchResult, OnResult, evaluate_row
+from physics.objective import BatchResult, OnResult, check_windows, evaluate_row
 from physics.parameters import Parameter, ParameterSpace
 from physics.pool import map_serial
 
@@ -146,13 +145,7 @@ class PushError:
             raise ParameterError(f"noise_std must be a positive length in m or None, got {noise_std!r}.")
         self.noise_std = noise_std
         self.fail_above = fail_above
-        try:
-            n_windows = 0 if isinstance(windows, bool) else operator.index(windows)
-        except TypeError:
-            n_windows = 0
-        if n_windows < 1:
-            raise ParameterError(f"windows must be an integer >= 1 (contiguous groups of pushes), got {windows!r}; "
-                                 "pass windows=1 for a single segment.")
+        n_windows = check_windows(windows, "groups of pushes")
         self.windows = n_windows
         self._groups = np.array_split(np.arange(self.impulses.size), min(n_windows, self.impulses.size))
 
