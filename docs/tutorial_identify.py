@@ -71,8 +71,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"90 % region: {region.sum()} of {grid.size} cells; m spans {np.ptp(theta[region, 0]):.2f} kg in it")
     print(f"m^2 mu: truth {truth[0] ** 2 * truth[1]:.3f}, posterior mean {p @ ridge:.3f} "
           f"+- {np.sqrt(p @ (ridge - p @ ridge) ** 2):.3f} kg^2")
-    print("identified (posterior std < 0.5 prior std):",
-          dict(zip(result.marginals["parameter"].values.tolist(), result.marginals["identified"].values.tolist())))
+    # The belief: P, the decoded cells, a verdict per parameter with its reason, draws of θ.
+    belief = result.belief
+    for name, (verdict, reason) in belief.verdicts.items():
+        print(f"{name}: {verdict} ({reason})")
+    draws = belief.sample(1000, seed=0)                    # 1000 x 2 draws of θ from P
+    print(f"m^2 mu over 1000 draws: {np.mean(draws[:, 0] ** 2 * draws[:, 1]):.3f} kg^2")
 
     # 6. Plot and save.
     plot_posterior_2d(P, os.path.join(args.out, "posterior.png"), decoder=decoder,
@@ -85,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     result.save(os.path.join(args.out, "result.nc"))
     back = IdentificationResult.load(os.path.join(args.out, "result.nc"))
     assert np.array_equal(back.posterior.values, P.values)
+    assert np.array_equal(back.belief.sample(5, seed=1), belief.sample(5, seed=1))  # same belief after the file
     print(f"wrote {args.out}/posterior.png, marginals.png, error.png, result.nc")
     if args.t6:
         t6(args.out, quick=quick)
@@ -104,13 +109,13 @@ def t6(out: str, *, quick: bool) -> None:
         decoder = REMBO(space, dim=3 if quick else 5, seed=0)    # A ~ N(0, 1) of 15 x d
         grid = Grid.for_decoder(decoder, points_per_dim=5 if quick else 9)
         result = identify(objective, decoder, grid, budget=8 if quick else 60, seed=0, progress=not quick)
-        print(result.summary())
+        print(result.summary(truth=theta_star))
         print(f"E at nominal {objective(space.nominal):.4g}, at the best θ {result.best_error:.4g}, "
               f"at θ* {objective(theta_star):.4g}")
     m = result.marginals
     err = (m["mean"].values - theta_star) / (space.upper - space.lower)
-    for name, e, ident in zip(space.names, err, m["identified"].values):
-        print(f"  {name:<16} posterior mean - θ* = {100 * e:+6.1f} % of the box{'  (identified)' if ident else ''}")
+    for name, e, verdict in zip(space.names, err, m["verdict"].values):
+        print(f"  {name:<16} posterior mean - θ* = {100 * e:+6.1f} % of the box ({verdict})")
     plot_marginals(result.posterior, decoder.decode(grid.points), space, os.path.join(out, "t6_marginals.png"),
                    marginals=m, truth=theta_star)
     plot_error_trace(result, os.path.join(out, "t6_error.png"))
