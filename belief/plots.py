@@ -47,7 +47,8 @@ def plot_marginals(
     P: xr.DataArray, theta: np.ndarray, space: Any, path: "str | os.PathLike[str]", *,
     marginals: xr.Dataset | None = None, truth: Sequence[float] | None = None, bins: int = 30,
 ) -> None:
-    """One panel per parameter: histogram of θ_j weighted by P (``theta``: decoded cells ``n x D``) vs the prior."""
+    """One panel per parameter: histogram of θ_j weighted by P (``theta``: decoded cells ``n x D``) vs the
+    prior, the credible interval shaded and the verdict under the title when ``marginals`` has them."""
     p = np.asarray(P.values, dtype=float).ravel()
     D = space.dim
     ncol = min(D, 5)
@@ -68,7 +69,8 @@ def plot_marginals(
             ax.axvspan(float(marginals["lower"][j]), float(marginals["upper"][j]), color="C0", alpha=0.12)
         if truth is not None:
             ax.axvline(truth[j], color="C3", label="truth")
-        ax.set_title(f"{space.names[j]} [{space.units[j]}]", fontsize=9)
+        verdict = "" if marginals is None or "verdict" not in marginals else f"\n{marginals['verdict'].values[j]}"
+        ax.set_title(f"{space.names[j]} [{space.units[j]}]{verdict}", fontsize=9)
         ax.tick_params(labelsize=7)
     for k in range(D, nrow * ncol):
         axes[k // ncol][k % ncol].axis("off")
