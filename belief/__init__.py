@@ -22,7 +22,7 @@ from belief.errors import BudgetWarning
 from belief.grid import Grid, SobolCandidates, candidates_from_config
 from belief.identify import identify, problem_fingerprint
 from belief.noise import NOISE_RULES, EffectiveSize, effective_size, noise_var_from_residuals, segment_discrepancy
-from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer
+from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, SobolDesign
 from belief.verdicts import VERDICTS, VerdictConfig
 from belief.journal import Journal, Record
 from belief.posterior import (
@@ -42,7 +42,7 @@ __all__ = [
     "BeliefError", "BudgetError", "GridError", "JournalError", "ObjectiveError", "SurrogateError",
     "BudgetWarning", "Belief", "Grid", "SobolCandidates", "candidates_from_config",
     "NOISE_RULES", "EffectiveSize", "effective_size", "noise_var_from_residuals", "segment_discrepancy",
-    "Proposal", "Proposer", "RandomProposer", "BOProposer", "VERDICTS", "VerdictConfig",
+    "Proposal", "Proposer", "RandomProposer", "SobolDesign", "BOProposer", "VERDICTS", "VerdictConfig",
     "GPSurrogate", "SurrogateConfig",
     "log_h", "log_expected_improvement", "select_cells",
     "PosteriorConfig", "posterior_from_surrogate", "log_likelihood", "estimate_noise_var",

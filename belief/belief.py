@@ -1,85 +1,195 @@
 """The posterior as an object: ``Belief``, what planners and model criticism consume.
 
-A Belief holds, for n cells of a latent grid:
+A Belief holds, for the n cells of a latent grid (``Grid`` or ``SobolCandidates``) and D parameters:
 
-- ``P``: the posterior over the cells (DataArray over the grid's dims, >= 0, sums to 1);
-- ``theta``: the decoded θ of every cell, ``n x D`` (cell order = ``P.values.ravel()``);
-- the ParameterSpace, the decoder's and the grid's configurations (so :meth:`decoder` and
-  :meth:`grid` rebuild exactly the ones that produced it);
-- a verdict per parameter ("identified", "weakly identified", "not identified") with its reason
-  (belief.verdicts), and ``attrs`` (noise rule, σ², warnings: JSON-able).
+- ``P``: the posterior over the cells, an ``xarray.DataArray`` over the grid's dims (``z0 ..
+  z{d-1}`` or ``cell``), >= 0, summing to 1; ``p`` is the same as a flat vector ``n`` in cell order;
+- ``theta``: the decoded centre of every cell, ``n x D`` (row k = decoder.decode(grid.points[k]));
+- ``space``: the :class:`~physics.parameters.ParameterSpace` (names, units, nominal, bounds, ...);
+- ``decoder_config`` and ``grid_config``: JSON-able configurations, so that :meth:`decoder` and
+  :meth:`grid` rebuild exactly the decoder and the cells that produced it;
+- ``verdict`` and ``reason``: per parameter, "identified", "weakly identified" or "not
+  identified" and why (given by whoever builds the Belief, e.g. :mod:`belief.assess`; by default
+  from P alone, see :func:`default_verdicts`);
+- ``attrs``: free-form JSON-able provenance (noise rule, σ², warnings, ...).
 
-It is used without re-running anything: :meth:`sample` draws θ (cells with probability P),
-:meth:`marginals` gives per-parameter mean, std, credible interval, MAP and verdict. It saves to
-one netCDF file (:meth:`save`, :meth:`load`) or into a group of another (:meth:`to_dataset`).
+It is used without re-running anything: :meth:`sample` draws θ with probability P (a draw is a
+cell's decoded centre, so draws are discrete on the n cells), :meth:`marginals` gives per-parameter
+mean, std, credible interval, MAP, prior moments and verdicts (numbers from
+:func:`belief.posterior.marginals`). It saves to one netCDF file (:meth:`save`, :meth:`load`,
+format attribute ``"tensegrid.belief/1"``) or into a group of another file (:meth:`to_dataset`,
+:meth:`from_dataset`); configurations and attrs travel as JSON strings, verdicts and reasons as
+string variables, so the round trip is exact.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
-from typing import Any, Sequence
+import typing
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
 
 from belief.errors import BeliefError
-from belief.grid import candidates_from_config
+from belief.grid import CandidateSet, candidates_from_config
 from belief.posterior import entropy, marginals
-from belief.verdicts import VERDICTS
+from belief.verdicts import VERDICTS, VerdictConfig
+from embeddings import Decoder, decoder_from_config
 from physics.parameters import Parameter, ParameterSpace
 
-__all__ = ["Belief", "FORMAT"]
+__all__ = ["Belief", "FORMAT", "SUM_TOLERANCE", "default_verdicts"]
 
+#: value of the ``format`` attribute of a saved belief
 FORMAT = "tensegrid.belief/1"
+#: |sum(P) - 1| allowed by the constructor
+SUM_TOLERANCE = 1e-6
+#: Parameter fields stored under another variable name (``name`` and ``unit`` are coordinates)
+_FIELD_VARS = {"name": "parameter", "unit": "unit", "lower": "lower_bound", "upper": "upper_bound"}
 
 
-def _default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
-    """From P alone: std/prior_std < 0.5 identified, < 0.8 weakly, else not (no evidence checks)."""
-    ratio = marg["std"].values / np.maximum(marg["prior_std"].values, 1e-300)
-    verdicts = [VERDICTS[0] if r < 0.5 else VERDICTS[1] if r < 0.8 else VERDICTS[2] for r in ratio]
-    return verdicts, [f"std is {r:.0%} of the prior's (P alone, no further evidence)" for r in ratio]
+def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
+    """Verdicts from P alone, with ratio_j = std_j / prior_std_j of the marginals ``marg``.
+
+    ratio < 0.5 -> identified, ratio < 0.8 -> weakly identified, else not identified (the default
+    :class:`~belief.verdicts.VerdictConfig` thresholds, without its evidence checks). A parameter
+    the decoder does not vary over the cells (prior_std = 0) is not identified.
+    """
+    cfg = VerdictConfig()
+    verdicts, reasons = [], []
+    for std, prior in zip(marg["std"].values, marg["prior_std"].values):
+        if not prior > 0:
+            verdicts.append(VERDICTS[2])
+            reasons.append("the decoder does not vary it over the cells (prior std 0): P says nothing about it")
+            continue
+        r = float(std / prior)
+        verdicts.append(VERDICTS[0] if r < cfg.identified_ratio else VERDICTS[1] if r < cfg.weak_ratio else VERDICTS[2])
+        reasons.append(f"std is {r:.0%} of the prior's (std/prior_std = {r:.3g}; from P alone: identified below "
+                       f"{cfg.identified_ratio:g}, weakly identified below {cfg.weak_ratio:g})")
+    return verdicts, reasons
+
+
+def _jsonable(value: Any, name: str) -> Any:
+    """``value`` as it comes back from JSON (numpy scalars and arrays become numbers and lists)."""
+    def default(v: Any) -> Any:
+        if isinstance(v, (np.ndarray, np.generic)):
+            return v.tolist()
+        raise TypeError(f"{type(v).__name__} is not JSON-able")
+
+    try:
+        return json.loads(json.dumps(value, default=default))
+    except (TypeError, ValueError) as exc:
+        raise BeliefError(f"{name} must be JSON-able (numbers, strings, lists, dicts with string keys), got "
+                          f"{_short(value)} ({exc}); convert the offending values first.") from None
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _check_p(P: "xr.DataArray | np.ndarray", grid: CandidateSet) -> xr.DataArray:
+    """P as the canonical DataArray "P" over ``grid`` (its coordinates), after validation."""
+    template = grid.to_dataarray(np.zeros(grid.size))
+    if isinstance(P, xr.DataArray):
+        if P.dims != template.dims or P.shape != template.shape:
+            raise BeliefError(f"P must be a DataArray over the grid's dims {template.dims} with shape "
+                              f"{template.shape}, got dims {P.dims} with shape {P.shape}; build it with "
+                              "grid.to_dataarray(p).")
+        for name, coord in template.coords.items():
+            if name in P.coords and not np.allclose(P[name].values, coord.values, rtol=1e-12, atol=0.0):
+                raise BeliefError(f"P's coordinate {name!r} differs from the grid's (grid_config); P belongs to "
+                                  "another grid: build it with grid.to_dataarray(p) on the grid of grid_config.")
+        values, attrs = np.asarray(P.values), dict(P.attrs)
+    else:
+        values, attrs = np.asarray(P), {}
+        if values.size != grid.size:
+            raise BeliefError(f"P must hold one probability per cell ({grid.size}, in cell order), got an array "
+                              f"of shape {values.shape}.")
+    if not np.issubdtype(values.dtype, np.number) or np.issubdtype(values.dtype, np.complexfloating):
+        raise BeliefError(f"P must hold real probabilities, got dtype {values.dtype}.")
+    p = values.astype(float).ravel()
+    finite = np.isfinite(p)
+    if not finite.all() or np.any(p[finite] < 0):
+        low = float(p[finite].min()) if finite.any() else float("nan")
+        raise BeliefError(f"P must be finite and >= 0 in every cell, got {int(np.sum(~finite))} non-finite and "
+                          f"{int(np.sum(p[finite] < 0))} negative values (min {low!r}); clip or recompute it.")
+    if abs(p.sum() - 1.0) > SUM_TOLERANCE:
+        raise BeliefError(f"P must sum to 1 (within {SUM_TOLERANCE:g}), got {float(p.sum())!r}; normalize it with "
+                          "P / P.sum().")
+    out = grid.to_dataarray(p, name="P")
+    out.attrs = _jsonable(attrs, "P.attrs")
+    return out
+
+
+def _check_verdicts(verdicts: Sequence[str] | None, reasons: Sequence[str] | None,
+                    marg: Callable[[], xr.Dataset], dim: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    if verdicts is None and reasons is None:
+        verdicts, reasons = default_verdicts(marg())
+    elif verdicts is None or reasons is None:
+        given = "verdicts" if reasons is None else "reasons"
+        raise BeliefError(f"{given} given without {'reasons' if reasons is None else 'verdicts'}: give both (one of "
+                          f"each per parameter) or neither (defaults from P alone).")
+    v, r = list(verdicts), list(reasons)
+    if isinstance(verdicts, str) or isinstance(reasons, str) or len(v) != dim or len(r) != dim:
+        raise BeliefError(f"give one verdict and one reason per parameter ({dim}), got {_short(verdicts)} and "
+                          f"{_short(reasons)}.")
+    bad = sorted({str(x) for x in v} - set(VERDICTS))
+    if bad or not all(isinstance(x, str) for x in r):
+        raise BeliefError(f"verdicts must be among {list(VERDICTS)} and reasons strings, got verdicts {bad or v} and "
+                          f"reason types {sorted({type(x).__name__ for x in r})}.")
+    return tuple(str(x) for x in v), tuple(r)
 
 
 class Belief:
-    """Posterior P over cells with the decoded θ, verdicts and provenance (module docstring).
+    """Posterior P over n cells with the decoded θ (``n x D``), verdicts and provenance (module docstring).
 
-    ``P``: DataArray over the grid dims; ``theta``: ``n x D``; ``verdicts``/``reasons``: one per
-    parameter (default from P alone); ``level``: credible level of intervals and summaries.
+    ``P``: DataArray over the grid's dims (or a flat array ``n`` in cell order), >= 0, sum 1;
+    ``theta``: ``n x D``; ``space``: the parameter space of θ; ``decoder_config``/``grid_config``:
+    ``decoder.config()`` and ``grid.config()``; ``verdicts``/``reasons``: one per parameter, both or
+    neither (default from P alone, :func:`default_verdicts`); ``attrs``: JSON-able dict;
+    ``level``: credible level of intervals and summaries. Raises :class:`BeliefError`.
     """
 
-    def __init__(self, P: xr.DataArray, theta: np.ndarray, space: ParameterSpace, *, decoder_config: dict[str, Any],
-                 grid_config: dict[str, Any], verdicts: Sequence[str] | None = None,
-                 reasons: Sequence[str] | None = None, attrs: dict[str, Any] | None = None, level: float = 0.9) -> None:
-        p = np.asarray(P.values, dtype=float).ravel()
-        th = np.asarray(theta, dtype=float)
-        if p.size == 0 or not np.all(np.isfinite(p)) or np.any(p < 0):
-            raise BeliefError("P must be a non-empty array of finite, non-negative probabilities.")
-        if abs(p.sum() - 1.0) > 1e-6:
-            raise BeliefError(f"P must sum to 1, got {p.sum()!r}; normalize it first.")
-        if th.shape != (p.size, space.dim):
-            raise BeliefError(f"theta must have shape ({p.size}, {space.dim}) (one decoded θ per cell), got {th.shape}.")
-        if not (0 < level < 1):
+    def __init__(self, P: "xr.DataArray | np.ndarray", theta: np.ndarray, space: ParameterSpace, *,
+                 decoder_config: Mapping[str, Any], grid_config: Mapping[str, Any],
+                 verdicts: Sequence[str] | None = None, reasons: Sequence[str] | None = None,
+                 attrs: Mapping[str, Any] | None = None, level: float = 0.9) -> None:
+        if not isinstance(space, ParameterSpace):
+            raise BeliefError(f"space must be a physics ParameterSpace, got {type(space).__name__}.")
+        if not isinstance(decoder_config, Mapping) or not isinstance(decoder_config.get("kind"), str):
+            raise BeliefError(f"decoder_config must be decoder.config() (a dict with a 'kind'), got "
+                              f"{_short(decoder_config)}.")
+        if not isinstance(grid_config, Mapping):
+            raise BeliefError(f"grid_config must be grid.config() (a dict), got {_short(grid_config)}.")
+        if attrs is not None and not (isinstance(attrs, Mapping) and all(isinstance(k, str) for k in attrs)):
+            raise BeliefError(f"attrs must be a dict with string keys (JSON-able), got {_short(attrs)}.")
+        if not (isinstance(level, (int, float)) and 0 < level < 1):
             raise BeliefError(f"level must lie in (0, 1), e.g. 0.9, got {level!r}.")
-        self.P, self.theta, self.space, self.level = P, th, space, float(level)
-        self.decoder_config, self.grid_config = dict(decoder_config), dict(grid_config)
-        self.attrs = dict(attrs or {})
-        if verdicts is None:
-            verdicts, default_reasons = _default_verdicts(self._numbers(self.level))
-            reasons = reasons if reasons is not None else default_reasons
-        verdicts, reasons = [str(v) for v in verdicts], [str(r) for r in (reasons or [""] * space.dim)]
-        if len(verdicts) != space.dim or len(reasons) != space.dim:
-            raise BeliefError(f"give one verdict and one reason per parameter ({space.dim}), got "
-                              f"{len(verdicts)} and {len(reasons)}.")
-        bad = sorted(set(verdicts) - set(VERDICTS))
-        if bad:
-            raise BeliefError(f"verdicts must be among {VERDICTS}, got {bad}.")
-        self.verdict, self.reason = tuple(verdicts), tuple(reasons)
+        self.decoder_config = _jsonable(dict(decoder_config), "decoder_config")
+        self.grid_config = _jsonable(dict(grid_config), "grid_config")
+        self.attrs: dict[str, Any] = _jsonable(dict(attrs or {}), "attrs")
+        self.P = _check_p(P, candidates_from_config(self.grid_config))
+        th = np.array(theta, dtype=float)
+        if th.shape != (self.P.size, space.dim) or not np.all(np.isfinite(th)):
+            raise BeliefError(f"theta must be finite with shape ({self.P.size}, {space.dim}) (one decoded θ per cell, "
+                              f"decoder.decode(grid.points)), got shape {th.shape}.")
+        th.setflags(write=False)
+        self.theta, self.space, self.level = th, space, float(level)
+        self.verdict, self.reason = _check_verdicts(verdicts, reasons, lambda: self._numbers(self.level), space.dim)
 
     @classmethod
-    def from_posterior(cls, P: xr.DataArray, decoder: Any, grid: Any, *, verdicts: Sequence[str] | None = None,
-                       reasons: Sequence[str] | None = None, attrs: dict[str, Any] | None = None,
-                       level: float = 0.9) -> "Belief":
-        """Belief of P over ``grid``, decoded by ``decoder`` (an embeddings.Decoder)."""
+    def from_posterior(cls, P: xr.DataArray, decoder: Decoder, grid: CandidateSet, *,
+                       verdicts: Sequence[str] | None = None, reasons: Sequence[str] | None = None,
+                       attrs: Mapping[str, Any] | None = None, level: float = 0.9) -> "Belief":
+        """Belief of P over ``grid`` with θ = ``decoder.decode(grid.points)`` (``n x D``)."""
+        if not isinstance(P, xr.DataArray):
+            raise BeliefError(f"P must be an xarray.DataArray over the grid's dims {grid.dims} "
+                              f"(posterior_from_surrogate or grid.to_dataarray), got {type(P).__name__}.")
+        if decoder.dim != grid.dim:
+            raise BeliefError(f"the grid has {grid.dim} latent dims but the decoder {decoder.dim}; build the grid "
+                              "with Grid.for_decoder(decoder).")
         theta = decoder.decode(np.asarray(grid.points))
         return cls(P, theta, decoder.space, decoder_config=decoder.config(), grid_config=grid.config(),
                    verdicts=verdicts, reasons=reasons, attrs=attrs, level=level)
@@ -87,40 +197,49 @@ class Belief:
     # ------------------------------------------------------------------ reading it
     @property
     def p(self) -> np.ndarray:
-        """P as a flat vector (n,) in cell order."""
-        return np.asarray(self.P.values, dtype=float).ravel()
+        """P as a flat read-only vector ``n`` in cell order (the rows of ``theta``)."""
+        v = np.asarray(self.P.values, dtype=float).ravel()
+        v.setflags(write=False)
+        return v
+
+    @property
+    def n_cells(self) -> int:
+        """Number of cells n."""
+        return int(self.P.size)
 
     def _numbers(self, level: float) -> xr.Dataset:
-        return marginals(self.P, self.theta, self.space, level=level)
+        return marginals(self.P, self.theta, self.space, level=level).drop_vars("identified")
 
     def marginals(self, level: float | None = None) -> xr.Dataset:
-        """Per parameter: mean, std, lower, upper (``level`` interval), map, prior_mean, prior_std,
-        verdict, reason and identified (verdict == "identified"); Dataset over ``parameter``."""
-        m = self._numbers(self.level if level is None else level).drop_vars("identified")
+        """Per parameter (Dataset over ``parameter``, coordinate ``unit``): ``mean``, ``std``, ``lower``,
+        ``upper`` (the ``level`` interval, default ``self.level``), ``map``, ``prior_mean``, ``prior_std``
+        (numbers of :func:`belief.posterior.marginals`), ``verdict``, ``reason`` and ``identified``."""
+        m = self._numbers(self.level if level is None else level)
         m["verdict"] = ("parameter", np.array(self.verdict, dtype=object))
         m["reason"] = ("parameter", np.array(self.reason, dtype=object))
-        m["identified"] = ("parameter", np.array([v == VERDICTS[0] for v in self.verdict]))
+        m["identified"] = ("parameter", self.identified)
+        m.attrs = {"level": float(self.level if level is None else level)}
         return m
 
     def interval(self, level: float | None = None) -> np.ndarray:
-        """Credible intervals (D x 2): the (1 ∓ level)/2 quantiles of each marginal."""
+        """Credible intervals ``D x 2``: the (1 - level)/2 and (1 + level)/2 quantiles of each marginal."""
         m = self._numbers(self.level if level is None else level)
         return np.column_stack([m["lower"].values, m["upper"].values])
 
     @property
     def mean(self) -> np.ndarray:
-        """Posterior mean θ (D,)."""
+        """Posterior mean θ = Σ_k p_k θ_k, shape ``D``."""
         return self.p @ self.theta
 
     @property
     def map(self) -> np.ndarray:
-        """θ of the most probable cell (D,)."""
-        return self.theta[int(np.argmax(self.p))]
+        """θ of the most probable cell, shape ``D`` (ties: the first cell)."""
+        return self.theta[int(np.argmax(self.p))].copy()
 
     @property
     def identified(self) -> np.ndarray:
-        """Boolean (D,): verdict == "identified"."""
-        return np.array([v == VERDICTS[0] for v in self.verdict])
+        """Boolean ``D``: verdict == "identified"."""
+        return np.array([v == VERDICTS[0] for v in self.verdict], dtype=bool)
 
     @property
     def verdicts(self) -> dict[str, tuple[str, str]]:
@@ -128,96 +247,151 @@ class Belief:
         return {n: (v, r) for n, v, r in zip(self.space.names, self.verdict, self.reason)}
 
     def entropy(self) -> float:
-        """Shannon entropy of P over the cells [nats]."""
+        """Shannon entropy -Σ P log P of P over the cells [nats] (0 for one cell, log n for uniform P)."""
         return entropy(self.P)
 
-    def sample(self, n: int, *, seed: "int | np.random.Generator") -> np.ndarray:
-        """n draws of θ (n x D): cells drawn with probability P, θ = the cell's decoded centre."""
-        if not isinstance(n, (int, np.integer)) or n < 0:
+    def sample_cells(self, n: int, *, seed: "int | np.random.Generator") -> np.ndarray:
+        """Indices of n cells drawn i.i.d. with probability P, shape ``n`` (int64); ``numpy.random.default_rng(seed)``."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
             raise BeliefError(f"n must be an integer >= 0 (number of draws), got {n!r}.")
-        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-        return self.theta[rng.choice(self.p.size, size=int(n), p=self.p)]
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer, np.random.Generator)):
+            raise BeliefError(f"seed must be an int or a numpy.random.Generator (same seed, same draws), got {seed!r}.")
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(int(seed))
+        p = self.p
+        return rng.choice(p.size, size=int(n), p=p / p.sum()).astype(np.int64)
 
-    def decoder(self) -> Any:
-        """The decoder that produced this belief, rebuilt from its configuration."""
-        from embeddings.registry import decoder_from_config
+    def sample(self, n: int, *, seed: "int | np.random.Generator") -> np.ndarray:
+        """n draws of θ, ``n x D``: cells drawn with probability P (:meth:`sample_cells`), θ = their decoded centres."""
+        return self.theta[self.sample_cells(n, seed=seed)]
 
+    def decoder(self) -> Decoder:
+        """The decoder that produced this belief, rebuilt by ``embeddings.decoder_from_config`` (checked equal)."""
         return decoder_from_config(self.decoder_config, self.space)
 
-    def grid(self) -> Any:
-        """The grid or candidate set of the cells, rebuilt from its configuration."""
+    def grid(self) -> CandidateSet:
+        """The Grid or SobolCandidates of the cells, rebuilt from ``grid_config`` (``candidates_from_config``)."""
         return candidates_from_config(self.grid_config)
 
     def summary(self, truth: Sequence[float] | None = None) -> str:
-        """Plain-text table: one row per parameter (mean, interval, verdict; ``truth`` column if given)."""
+        """Plain-text table: one row per parameter (unit, mean, interval, verdict; ``truth`` column if given)."""
         m = self.marginals()
+        tr = None if truth is None else np.asarray(truth, dtype=float)
+        if tr is not None and tr.shape != (self.space.dim,):
+            raise BeliefError(f"truth must have shape ({self.space.dim},) in the order {list(self.space.names)}, "
+                              f"got {tr.shape}.")
         head = f"{'parameter':<17}{'unit':<9}{'mean':>11}{'lower':>11}{'upper':>11}"
-        head += f"{'truth':>11}" if truth is not None else ""
-        lines = [head + "  verdict"]
+        lines = [head + (f"{'truth':>11}" if tr is not None else "") + "  verdict"]
         for j, name in enumerate(self.space.names):
-            row = (f"{name:<17}{self.space.units[j]:<9}{m['mean'].values[j]:>11.5g}{m['lower'].values[j]:>11.5g}"
-                   f"{m['upper'].values[j]:>11.5g}")
-            if truth is not None:
-                inside = m["lower"].values[j] <= truth[j] <= m["upper"].values[j]
-                row += f"{truth[j]:>10.5g}{' ' if inside else '!'}"
+            lo, hi = m["lower"].values[j], m["upper"].values[j]
+            row = f"{name:<17}{self.space.units[j]:<9}{m['mean'].values[j]:>11.5g}{lo:>11.5g}{hi:>11.5g}"
+            if tr is not None:
+                row += f"{tr[j]:>10.5g}{' ' if lo <= tr[j] <= hi else '!'}"
             lines.append(row + f"  {self.verdict[j]}")
         lines.append(f"{self.level:.0%} credible intervals; verdict reasons: Belief.verdicts"
-                     + ("; '!' marks a truth outside the interval" if truth is not None else ""))
+                     + ("; '!' marks a truth outside the interval" if tr is not None else ""))
         return "\n".join(lines)
 
     def __repr__(self) -> str:
         ident = [n for n, v in zip(self.space.names, self.verdict) if v == VERDICTS[0]]
-        return f"Belief({self.p.size} cells, {self.space.dim} parameters, identified: {ident or 'none'})"
+        return f"Belief({self.n_cells} cells, {self.space.dim} parameters, identified: {ident or 'none'})"
 
     # ------------------------------------------------------------------ files
     def to_dataset(self) -> xr.Dataset:
-        """Everything in one Dataset (P over the grid dims, theta over (cell, parameter), the space,
-        verdicts and reasons over parameter; configurations and attrs as JSON attributes)."""
-        ps = self.space.parameters
-        par = ("parameter",)
-        ds = xr.Dataset({
-            "P": self.P.rename("P"),
-            "theta": (("cell_index", "parameter"), self.theta),
-            "verdict": (par, np.array(self.verdict, dtype=object)), "reason": (par, np.array(self.reason, dtype=object)),
-            "nominal": (par, [q.nominal for q in ps]), "lower_bound": (par, [q.lower for q in ps]),
-            "upper_bound": (par, [q.upper for q in ps]), "minimum": (par, [q.minimum for q in ps]),
-            "strict": (par, np.array([int(q.strict) for q in ps], dtype=np.int8)),
-            "description": (par, np.array([q.description for q in ps], dtype=object)),
-        }, coords={"parameter": list(self.space.names), "unit": ("parameter", list(self.space.units))})
+        """Everything in one Dataset: ``P`` over the grid dims, ``theta`` (cell_index, parameter), the
+        space's fields, ``verdict`` and ``reason`` over ``parameter``; configurations, P's attrs and
+        ``attrs`` as JSON string attributes; ``format`` = :data:`FORMAT`."""
+        P = self.P.copy()
+        P.attrs = {}
+        coords, space_vars = _space_variables(self.space)
+        ds = xr.Dataset({"P": P, "theta": (("cell_index", "parameter"), np.asarray(self.theta)),
+                         "verdict": ("parameter", np.array(self.verdict, dtype=object)),
+                         "reason": ("parameter", np.array(self.reason, dtype=object)), **space_vars},
+                        coords=coords)
         ds.attrs = {"format": FORMAT, "level": self.level, "P_dims": json.dumps(list(self.P.dims)),
+                    "P_attrs": json.dumps(self.P.attrs),
                     "decoder_config": json.dumps(self.decoder_config), "grid_config": json.dumps(self.grid_config),
-                    "attrs": json.dumps(self.attrs, default=float)}
+                    "attrs": json.dumps(self.attrs)}
         return ds
 
     @classmethod
     def from_dataset(cls, ds: xr.Dataset) -> "Belief":
-        """Inverse of :meth:`to_dataset`."""
-        if ds.attrs.get("format") != FORMAT:
-            raise BeliefError(f"not a tensegrid belief (format attribute {ds.attrs.get('format')!r}, expected {FORMAT!r}).")
-        params = tuple(Parameter(str(n), str(u), float(no), float(lo), float(hi), str(de), float(mi), bool(st))
-                       for n, u, no, lo, hi, de, mi, st in zip(
-                           ds["parameter"].values, ds["unit"].values, ds["nominal"].values, ds["lower_bound"].values,
-                           ds["upper_bound"].values, ds["description"].values, ds["minimum"].values, ds["strict"].values))
-        P = ds["P"].transpose(*json.loads(ds.attrs["P_dims"]))
-        P.attrs = dict(ds["P"].attrs)
-        return cls(P, ds["theta"].values, ParameterSpace(params), decoder_config=json.loads(ds.attrs["decoder_config"]),
-                   grid_config=json.loads(ds.attrs["grid_config"]), verdicts=[str(v) for v in ds["verdict"].values],
-                   reasons=[str(r) for r in ds["reason"].values], attrs=json.loads(ds.attrs["attrs"]),
-                   level=float(ds.attrs["level"]))
+        """Inverse of :meth:`to_dataset`; a Dataset that is not a belief raises :class:`BeliefError`."""
+        if not isinstance(ds, xr.Dataset) or ds.attrs.get("format") != FORMAT:
+            found = ds.attrs.get("format") if isinstance(ds, xr.Dataset) else type(ds).__name__
+            raise BeliefError(f"not a tensegrid belief (format attribute {found!r}, expected {FORMAT!r}); "
+                              "write one with Belief.save or Belief.to_dataset.")
+        missing = [k for k in ("P", "theta", "verdict", "reason") if k not in ds.variables]
+        missing += [k for k in ("level", "P_dims", "decoder_config", "grid_config", "attrs") if k not in ds.attrs]
+        if missing:
+            raise BeliefError(f"the belief Dataset lacks {missing}; it was not written by Belief.to_dataset.")
+        try:
+            P = ds["P"].transpose(*json.loads(ds.attrs["P_dims"]))
+            P.attrs = json.loads(ds.attrs["P_attrs"]) if "P_attrs" in ds.attrs else dict(ds["P"].attrs)
+            configs = [json.loads(ds.attrs[k]) for k in ("decoder_config", "grid_config", "attrs")]
+        except (ValueError, TypeError) as exc:
+            raise BeliefError(f"the belief Dataset has a corrupt attribute ({exc}); re-save the belief.") from None
+        return cls(P, ds["theta"].values, _space_from_dataset(ds), decoder_config=configs[0], grid_config=configs[1],
+                   verdicts=[str(v) for v in ds["verdict"].values], reasons=[str(r) for r in ds["reason"].values],
+                   attrs=configs[2], level=float(ds.attrs["level"]))
 
     def save(self, path: "str | os.PathLike[str]") -> None:
-        """Write to a netCDF4 file (xarray)."""
+        """Write to one netCDF4 file (xarray, engine netcdf4), overwriting ``path``."""
         self.to_dataset().to_netcdf(os.fspath(path), mode="w", engine="netcdf4")
 
     @classmethod
     def load(cls, path: "str | os.PathLike[str]", *, group: str | None = None) -> "Belief":
-        """Read a file written by :meth:`save` (or the ``group`` of a file that embeds one)."""
+        """Read a file written by :meth:`save` (or the netCDF ``group`` of a file that embeds one)."""
         path = os.fspath(path)
         if not os.path.exists(path):
             raise BeliefError(f"no belief file at {path!r}; write one with Belief.save(path).")
         try:
             with xr.open_dataset(path, engine="netcdf4", group=group) as ds:
                 ds = ds.load()
-        except (OSError, ValueError) as exc:
-            raise BeliefError(f"{path!r} is not a readable netCDF belief ({exc}).") from exc
+        except (OSError, ValueError, KeyError) as exc:
+            raise BeliefError(f"{path!r} is not a readable netCDF belief{'' if group is None else f' group {group!r}'} "
+                              f"({exc}); write one with Belief.save(path).") from None
         return cls.from_dataset(ds)
+
+
+def _field_kinds() -> dict[str, Any]:
+    """Parameter field -> its type (str, float, bool or another, stored as JSON)."""
+    hints = typing.get_type_hints(Parameter)
+    return {f.name: hints.get(f.name, object) for f in dataclasses.fields(Parameter)}
+
+
+def _space_variables(space: ParameterSpace) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(coordinates, data variables) over ``parameter`` holding every field of every Parameter."""
+    coords: dict[str, Any] = {"parameter": list(space.names), "unit": ("parameter", list(space.units))}
+    data: dict[str, Any] = {}
+    for name, kind in _field_kinds().items():
+        if name in ("name", "unit"):
+            continue
+        values = [getattr(q, name) for q in space.parameters]
+        if kind is bool:
+            arr = np.array(values, dtype=np.int8)
+        elif kind in (int, float):
+            arr = np.array(values, dtype=float)
+        elif kind is str:
+            arr = np.array(values, dtype=object)
+        else:
+            arr = np.array([json.dumps(_jsonable(v, f"Parameter.{name}")) for v in values], dtype=object)
+        data[_FIELD_VARS.get(name, name)] = ("parameter", arr)
+    return coords, data
+
+
+def _space_from_dataset(ds: xr.Dataset) -> ParameterSpace:
+    """The ParameterSpace stored by :func:`_space_variables` (fields absent from the file take their defaults)."""
+    columns: dict[str, list[Any]] = {}
+    for name, kind in _field_kinds().items():
+        var = _FIELD_VARS.get(name, name)
+        if var not in ds.variables:
+            continue
+        raw = ds[var].values.tolist()
+        convert = {bool: bool, float: float, int: int, str: str}.get(kind, json.loads)
+        columns[name] = [convert(v) for v in raw]
+    try:
+        n = len(columns["name"])
+        return ParameterSpace(tuple(Parameter(**{k: v[i] for k, v in columns.items()}) for i in range(n)))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise BeliefError(f"the belief Dataset's parameter space cannot be rebuilt ({exc}); "
+                          "re-save the belief.") from None

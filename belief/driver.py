@@ -113,9 +113,11 @@ def _evaluate_batch(objective: Any, thetas: np.ndarray, commit: Callable[[int, _
     """Evaluate rows with ``objective.evaluate_batch``; ``commit(k, row)`` each as soon as it is known."""
     if _accepts_on_result(objective.evaluate_batch):
         def stream(k: int, err: float, status: str, seconds: float, message: str, parts: Any) -> None:
-            ok = status == "ok" and math.isfinite(err)
-            commit(int(k), (float(err) if ok else float("nan"), status if ok or status != "ok" else "failed",
-                            str(message), float(seconds), tuple(float(v) for v in parts) if ok else ()))
+            if status == "ok" and not math.isfinite(err):
+                status, message = "failed", f"objective returned a non-finite error ({err!r})"
+            ok = status == "ok"
+            commit(int(k), (float(err) if ok else float("nan"), status, str(message), float(seconds),
+                            tuple(float(v) for v in parts) if ok else ()))
 
         objective.evaluate_batch(thetas, on_result=stream)
         return

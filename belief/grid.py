@@ -14,6 +14,7 @@ per axis give 1.4e7 cells), so full-space baselines use a scrambled Sobol set (s
 """
 from __future__ import annotations
 
+import json
 import warnings
 from typing import Any, Sequence
 
@@ -149,6 +150,12 @@ class Grid(CandidateSet):
     def config(self) -> dict[str, Any]:
         return {"kind": "grid", "bounds": self.bounds.tolist(), "points_per_dim": list(self.points_per_dim)}
 
+    @classmethod
+    def from_config(cls, config: dict[str, Any]) -> "Grid":
+        """The Grid whose ``config()`` equals ``config`` (kind "grid", ``bounds`` d x 2, ``points_per_dim``)."""
+        _require(config, "grid", ("bounds", "points_per_dim"))
+        return _same_config(cls(config["bounds"], points_per_dim=config["points_per_dim"]), config)
+
 
 class SobolCandidates(CandidateSet):
     """``n`` scrambled Sobol points in the latent box (``scipy.stats.qmc.Sobol(d, seed=seed)``).
@@ -191,12 +198,41 @@ class SobolCandidates(CandidateSet):
     def config(self) -> dict[str, Any]:
         return {"kind": "sobol", "bounds": self.bounds.tolist(), "n": self.n, "seed": self.seed}
 
+    @classmethod
+    def from_config(cls, config: dict[str, Any]) -> "SobolCandidates":
+        """The SobolCandidates whose ``config()`` equals ``config`` (kind "sobol", ``bounds``, ``n``, ``seed``)."""
+        _require(config, "sobol", ("bounds", "n", "seed"))
+        return _same_config(cls(config["bounds"], n=config["n"], seed=config["seed"]), config)
+
+
+_KINDS: dict[str, type] = {"grid": Grid, "sobol": SobolCandidates}
+
 
 def candidates_from_config(config: dict[str, Any]) -> CandidateSet:
-    """The Grid or SobolCandidates whose ``config()`` equals ``config`` (a saved belief's grid)."""
+    """The Grid or SobolCandidates whose ``config()`` equals ``config`` (a saved belief's grid), by its ``kind``."""
     kind = config.get("kind") if isinstance(config, dict) else None
-    if kind == "grid":
-        return Grid(config["bounds"], points_per_dim=[int(k) for k in config["points_per_dim"]])
-    if kind == "sobol":
-        return SobolCandidates(config["bounds"], n=int(config["n"]), seed=int(config["seed"]))
-    raise GridError(f"unknown candidate-set kind {kind!r} in the saved configuration; expected 'grid' or 'sobol'.")
+    if kind not in _KINDS:
+        raise GridError(f"unknown candidate-set kind {kind!r} in the saved configuration; expected one of "
+                        f"{sorted(_KINDS)} (a dict from Grid.config() or SobolCandidates.config()).")
+    return _KINDS[kind].from_config(config)
+
+
+def _require(config: Any, kind: str, keys: tuple[str, ...]) -> None:
+    if not isinstance(config, dict) or config.get("kind") != kind:
+        got = config.get("kind") if isinstance(config, dict) else type(config).__name__
+        raise GridError(f"config must be a dict with kind {kind!r} (from config()), got {got!r}.")
+    missing = [k for k in keys if k not in config]
+    if missing:
+        raise GridError(f"the saved {kind} configuration lacks {missing} (has {sorted(config)}); save it with config().")
+
+
+def _same_config(cells: CandidateSet, config: dict[str, Any]) -> Any:
+    """``cells``, after checking that its config() equals ``config`` (compared as JSON)."""
+    rebuilt = json.loads(json.dumps(cells.config()))
+    saved = json.loads(json.dumps(config, default=lambda v: v.tolist() if hasattr(v, "tolist") else str(v)))
+    if rebuilt != saved:
+        keys = sorted(k for k in set(rebuilt) | set(saved) if rebuilt.get(k) != saved.get(k))
+        raise GridError(f"the rebuilt candidate set differs from the saved configuration in {keys}: saved "
+                        f"{[saved.get(k) for k in keys]}, rebuilt {[rebuilt.get(k) for k in keys]}; "
+                        "give the configuration as config() wrote it.")
+    return cells

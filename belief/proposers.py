@@ -11,15 +11,20 @@ The identification driver (belief.driver) owns budgets, journal and evaluation; 
 (active probing, another surrogate) is a new proposer, not an edit of the driver.
 
 - :class:`RandomProposer`: a seeded permutation of the cells (random search);
-- :class:`BOProposer`: an initial design of scrambled Sobol points snapped to cells, then the GP
-  surrogate (belief.surrogate) and log expected improvement with a kriging-believer batch
-  (belief.acquisition) over the unevaluated cells.
+- :class:`SobolDesign`: scrambled Sobol points of the latent box snapped to their nearest cells
+  (the initial design of BO; alone, quasi-random search);
+- :class:`BOProposer`: an initial design (``SobolDesign`` by default) at batch 0, then the GP
+  surrogate (belief.surrogate) and an acquisition over the unevaluated cells (log expected
+  improvement with a kriging-believer batch, belief.acquisition.select_cells).
+
+Batch sizes (``n_init`` for batch 0, ``q`` after) are the driver's budget, not a proposer option:
+every proposer fills the batch it is given.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Protocol, Sequence, runtime_checkable
+from typing import Any, Callable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 from scipy.stats import qmc
@@ -28,7 +33,11 @@ from belief.acquisition import select_cells
 from belief.journal import Record
 from belief.surrogate import GPSurrogate, SurrogateConfig
 
-__all__ = ["Proposal", "Proposer", "RandomProposer", "BOProposer", "sobol_design", "fit_surrogate"]
+__all__ = ["Proposal", "Proposer", "RandomProposer", "SobolDesign", "BOProposer", "Acquisition", "sobol_design",
+           "fit_surrogate"]
+
+#: select_cells(model, points (n x d), available (n,) bool, *, q, prediction=(mean, var) (n,)) -> q cell indices
+Acquisition = Callable[..., list[int]]
 
 
 @dataclass(frozen=True)
@@ -98,18 +107,43 @@ class RandomProposer:
         return {"kind": "random", "seed": self.seed}
 
 
-class BOProposer:
-    """Bayesian optimization: Sobol design at batch 0, then log EI under the GP (kriging believer
-    for batches of q > 1); with fewer than 2 successes, the next cells of a seeded permutation."""
+class SobolDesign:
+    """Quasi-random design: the cells nearest to the scrambled Sobol sequence drawn from ``seed``, in
+    order, skipping evaluated ones. At batch 0 of ``size`` cells it is :func:`sobol_design`."""
 
-    def __init__(self, seed: int, *, surrogate: SurrogateConfig | None = None, impute_failed: bool = False) -> None:
+    def __init__(self, seed: int) -> None:
+        self.seed = int(seed)
+
+    def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal:
+        order = sobol_design(grid, len(history) + size, self.seed)
+        return Proposal(_unevaluated(np.asarray(order), history, size))
+
+    def config(self) -> dict[str, Any]:
+        return {"kind": "sobol", "seed": self.seed}
+
+
+def _callable_name(fn: Callable[..., Any]) -> str:
+    return f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', type(fn).__name__)}"
+
+
+class BOProposer:
+    """Bayesian optimization (steps 1, 3-4 of Algorithm 1): ``initial`` (default ``SobolDesign(seed)``)
+    proposes batch 0; later batches fit the GP to the history and take the cells chosen by
+    ``acquisition`` (default: log EI, kriging believer for batches of q > 1) among unevaluated ones;
+    with fewer than 2 successes, the next cells of a seeded permutation."""
+
+    def __init__(self, seed: int, *, surrogate: SurrogateConfig | None = None,
+                 acquisition: Acquisition = select_cells, initial: Proposer | None = None,
+                 impute_failed: bool = False) -> None:
         self.seed = int(seed)
         self.surrogate = surrogate or SurrogateConfig()
+        self.acquisition = acquisition
+        self.initial = initial if initial is not None else SobolDesign(self.seed)
         self.impute_failed = bool(impute_failed)
 
     def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal:
         if batch == 0:
-            return Proposal(sobol_design(grid, size, self.seed))
+            return self.initial.propose(batch, history, size, grid)
         model = fit_surrogate(history, grid, self.surrogate, impute_failed=self.impute_failed)
         if model is None:
             order = np.random.default_rng([self.seed, 4, batch]).permutation(grid.size)
@@ -117,8 +151,9 @@ class BOProposer:
         avail = np.ones(grid.size, dtype=bool)
         avail[[r.cell for r in history]] = False
         pred = model.predict(grid.points)
-        return Proposal(select_cells(model, grid.points, avail, q=size, prediction=pred), model, pred)
+        return Proposal(self.acquisition(model, grid.points, avail, q=size, prediction=pred), model, pred)
 
     def config(self) -> dict[str, Any]:
         return {"kind": "bo", "seed": self.seed, "impute_failed": self.impute_failed,
+                "acquisition": _callable_name(self.acquisition), "initial": self.initial.config(),
                 "surrogate": {k: getattr(self.surrogate, k) for k in self.surrogate.__dataclass_fields__}}

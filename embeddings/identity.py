@@ -1,21 +1,34 @@
 """The identity decoder: the latent box is the unit cube of the parameter space, θ = lower + z (upper - lower)."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
 from embeddings.base import Decoder
+from embeddings.registry import check_config, register_decoder, require_keys
 from physics.parameters import ParameterSpace
 
 __all__ = ["Identity"]
 
 
+@register_decoder("identity")
 class Identity(Decoder):
     """z ∈ [0, 1]^D  ->  θ = lower + z ⊙ (upper - lower), ``n x D`` -> ``n x D`` (no reduction; d = D)."""
 
     def __init__(self, space: ParameterSpace) -> None:
         self.space = space
+
+    @classmethod
+    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> "Identity":
+        """The Identity on ``space`` whose ``config()`` equals ``config`` (names and bounds must match ``space``).
+
+        Raises :class:`~embeddings.errors.EmbeddingError` naming missing or differing keys.
+        """
+        require_keys(config, ("kind", "names", "lower", "upper"), kind="identity")
+        decoder = cls(space)
+        check_config(decoder, config)
+        return decoder
 
     @property
     def dim(self) -> int:

@@ -1,45 +1,111 @@
 """Rebuild a decoder from its saved configuration (``Decoder.config()``), so that a saved belief
 or journal reloads with exactly the decoder that produced it.
 
-Each decoder kind registers a builder ``(config, space) -> Decoder``; the rebuilt decoder's
-``config()`` must equal the saved one (a REMBO matrix redrawn from its seed, for instance), else
-:class:`EmbeddingError` says what differs.
+The registry maps a configuration's ``kind`` (e.g. "identity", "rembo") to a decoder class with a
+classmethod ``from_config(config, space) -> Decoder``; classes register themselves with the
+decorator ``@register_decoder("kind")`` when their module is imported (importing ``embeddings``
+registers Identity and REMBO). :func:`decoder_from_config` dispatches on ``kind`` and then checks
+that the rebuilt decoder's ``config()`` equals the saved one (compared as JSON, the form in which
+configurations are stored), so a file written on another parameter space, or by a decoder whose
+options changed meaning, is refused instead of silently decoding to other θ.
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+import json
+from typing import Any, Callable, Mapping, Sequence, TypeVar
 
 from embeddings.base import Decoder
 from embeddings.errors import EmbeddingError
-from embeddings.identity import Identity
-from embeddings.rembo import REMBO
 from physics.parameters import ParameterSpace
 
-__all__ = ["register_decoder", "decoder_from_config"]
+__all__ = ["register_decoder", "decoder_from_config", "registered_kinds", "require_keys", "check_config"]
 
-_BUILDERS: dict[str, Callable[[dict[str, Any], ParameterSpace], Decoder]] = {}
+_D = TypeVar("_D", bound=type)
 
-
-def register_decoder(kind: str, builder: Callable[[dict[str, Any], ParameterSpace], Decoder]) -> None:
-    """Make ``decoder_from_config`` rebuild configs of ``kind`` with ``builder(config, space)``."""
-    _BUILDERS[str(kind)] = builder
+_REGISTRY: dict[str, type[Decoder]] = {}
 
 
-register_decoder("identity", lambda cfg, space: Identity(space))
-register_decoder("rembo", lambda cfg, space: REMBO(space, dim=int(cfg["dim"]), seed=int(cfg["seed"]),
-                                                  box_scale=float(cfg["box_scale"])))
+def register_decoder(kind: str) -> Callable[[_D], _D]:
+    """Class decorator: ``decoder_from_config`` rebuilds configurations of ``kind`` with ``cls.from_config``.
+
+    The class must be a :class:`Decoder` with a classmethod ``from_config(config, space)``.
+    Registering another class under a taken kind raises :class:`EmbeddingError` (registering the
+    same class again is a no-op).
+    """
+    if not isinstance(kind, str) or not kind:
+        raise EmbeddingError(f"register_decoder needs a non-empty string kind (the 'kind' of config()), got {kind!r}.")
+
+    def decorate(cls: _D) -> _D:
+        if not (isinstance(cls, type) and issubclass(cls, Decoder) and callable(getattr(cls, "from_config", None))):
+            raise EmbeddingError(f"register_decoder({kind!r}) decorates a Decoder subclass with a classmethod "
+                                 f"from_config(config, space), got {cls!r}; add from_config to it.")
+        known = _REGISTRY.get(kind)
+        if known is not None and known is not cls:
+            raise EmbeddingError(f"decoder kind {kind!r} is already registered to {known.__qualname__}; "
+                                 f"choose another kind for {cls.__qualname__}.")
+        _REGISTRY[kind] = cls
+        return cls
+
+    return decorate
 
 
-def decoder_from_config(config: dict[str, Any], space: ParameterSpace) -> Decoder:
-    """The decoder whose ``config()`` equals ``config``, on parameter space ``space``."""
-    kind = config.get("kind") if isinstance(config, dict) else None
-    if kind not in _BUILDERS:
+def registered_kinds() -> tuple[str, ...]:
+    """The decoder kinds :func:`decoder_from_config` knows, sorted."""
+    return tuple(sorted(_REGISTRY))
+
+
+def require_keys(config: Mapping[str, Any], keys: Sequence[str], *, kind: str) -> None:
+    """Raise :class:`EmbeddingError` naming the ``keys`` missing from a saved ``kind`` configuration."""
+    if not isinstance(config, Mapping):
+        raise EmbeddingError(f"a {kind} decoder configuration must be a dict (Decoder.config()), "
+                             f"got {type(config).__name__}.")
+    missing = [k for k in keys if k not in config]
+    if missing:
+        raise EmbeddingError(f"the saved {kind} decoder configuration lacks {missing} (has {sorted(config)}); "
+                             f"save it with Decoder.config().")
+
+
+def _as_json(value: Any) -> Any:
+    return json.loads(json.dumps(value))
+
+
+def check_config(decoder: Decoder, config: Mapping[str, Any]) -> None:
+    """Raise :class:`EmbeddingError` unless ``decoder.config()`` equals ``config`` (compared as JSON).
+
+    The message names the differing keys with the saved and the rebuilt values.
+    """
+    try:
+        saved = _as_json(dict(config))
+    except (TypeError, ValueError) as exc:
+        raise EmbeddingError(f"a decoder configuration must be JSON-able (Decoder.config()), got "
+                             f"{_short(config)}: {exc}.") from None
+    rebuilt = _as_json(decoder.config())
+    if rebuilt == saved:
+        return
+    keys = sorted(k for k in set(rebuilt) | set(saved) if rebuilt.get(k) != saved.get(k))
+    detail = "; ".join(f"{k}: saved {_short(saved.get(k))}, rebuilt {_short(rebuilt.get(k))}" for k in keys[:4])
+    raise EmbeddingError(f"the rebuilt {rebuilt.get('kind')} decoder differs from the saved configuration in {keys} "
+                         f"({detail}); rebuild it on the parameter space the file was written with.")
+
+
+def _short(value: Any, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def decoder_from_config(config: Mapping[str, Any], space: ParameterSpace) -> Decoder:
+    """The decoder on ``space`` whose ``config()`` equals ``config`` (the registered class of its ``kind``).
+
+    Raises :class:`EmbeddingError` for a configuration that is not a dict, an unknown kind (the
+    message lists the known kinds), missing options, or a rebuilt decoder whose configuration
+    differs from the saved one.
+    """
+    if not isinstance(space, ParameterSpace):
+        raise EmbeddingError(f"decoder_from_config needs a physics ParameterSpace, got {type(space).__name__}.")
+    kind = config.get("kind") if isinstance(config, Mapping) else None
+    if kind not in _REGISTRY:
         raise EmbeddingError(f"unknown decoder kind {kind!r} in the saved configuration; known kinds: "
-                             f"{sorted(_BUILDERS)} (register others with embeddings.register_decoder).")
-    decoder = _BUILDERS[kind](config, space)
-    rebuilt = decoder.config()
-    if rebuilt != config:
-        keys = sorted(k for k in set(rebuilt) | set(config) if rebuilt.get(k) != config.get(k))
-        raise EmbeddingError(f"the rebuilt {kind} decoder differs from the saved configuration in {keys}; "
-                             "the file was written on another parameter space or by another version.")
+                             f"{list(registered_kinds())} (register others with @embeddings.register_decoder).")
+    decoder = _REGISTRY[kind].from_config(config, space)
+    check_config(decoder, config)
     return decoder

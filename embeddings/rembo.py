@@ -13,17 +13,19 @@ Clipping each coordinate independently is exactly the Euclidean projection onto 
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
 from embeddings.base import Decoder
 from embeddings.errors import EmbeddingError
+from embeddings.registry import check_config, register_decoder, require_keys
 from physics.parameters import ParameterSpace
 
 __all__ = ["REMBO"]
 
 
+@register_decoder("rembo")
 class REMBO(Decoder):
     """Random linear embedding z (``n x d``) -> θ (``n x D``) with box projection; see module docstring.
 
@@ -47,6 +49,18 @@ class REMBO(Decoder):
         self.box_scale = scale
         #: the random matrix A, shape ``D x d``
         self.A = np.random.default_rng(self.seed).standard_normal((space.dim, self._dim))
+
+    @classmethod
+    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> "REMBO":
+        """The REMBO on ``space`` whose ``config()`` equals ``config``: A is redrawn from the saved ``seed``.
+
+        The rebuilt configuration (d, seed, box_scale, names and bounds of ``space``) must equal
+        the saved one, else :class:`EmbeddingError` names the differing keys.
+        """
+        require_keys(config, ("kind", "dim", "seed", "box_scale", "names", "lower", "upper"), kind="rembo")
+        decoder = cls(space, dim=config["dim"], seed=config["seed"], box_scale=config["box_scale"])
+        check_config(decoder, config)
+        return decoder
 
     @property
     def dim(self) -> int:

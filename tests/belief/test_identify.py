@@ -304,3 +304,40 @@ def test_batch_results_with_seconds_and_messages(push_problem) -> None:
         bad = Objective()
         bad.evaluate_batch = lambda thetas: [(1.0, "ok")]
         identify(bad, dec, Grid.for_decoder(dec, points_per_dim=21), budget=9, n_init=5, seed=0, progress=False)
+
+
+def test_streamed_rows_keep_statuses_and_parts(push_problem) -> None:
+    """An evaluate_batch with on_result (the physics.objective contract) is journalled row by row, with
+    its segment errors; a row reported "ok" with a non-finite error becomes "failed"."""
+    obj, _ = push_problem()
+
+    class Streaming:
+        space, segments, noise_var = obj.space, obj.segments, obj.noise_var
+
+        def __call__(self, theta):
+            return obj(theta)
+
+        def evaluate_parts(self, theta):
+            return obj.evaluate_parts(theta)
+
+        def evaluate_batch(self, thetas, *, on_result=None):
+            for k in reversed(range(len(thetas))):
+                if k == 0:
+                    on_result(k, float("nan"), "ok", 0.5, "", np.full(len(obj.segments), np.nan))
+                elif k == 1:
+                    on_result(k, float("nan"), "diverged", 0.5, "PhysicsError: exploded",
+                              np.full(len(obj.segments), np.nan))
+                else:
+                    p = obj.evaluate_parts(thetas[k])
+                    on_result(k, float(p.sum()), "ok", 0.5, "", p)
+
+    dec = Identity(obj.space)
+    res = identify(Streaming(), dec, Grid.for_decoder(dec, points_per_dim=11), budget=5, n_init=5, seed=0,
+                   progress=False, posterior=None)
+    h = res.history
+    assert sorted(h["status"].values.tolist()) == ["diverged", "failed", "ok", "ok", "ok"]
+    failed = h["status"].values == "failed"
+    assert "non-finite" in str(h["message"].values[failed][0])
+    ok = h["status"].values == "ok"
+    np.testing.assert_allclose(h["parts"].values[ok].sum(axis=1), h["error"].values[ok])
+    assert np.isnan(h["parts"].values[~ok]).all()

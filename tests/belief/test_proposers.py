@@ -6,7 +6,8 @@ import sqlite3
 import numpy as np
 import pytest
 
-from belief import Grid, Proposal, Proposer, identify
+from belief import BOProposer, Grid, Proposal, Proposer, SobolDesign, identify
+from belief.proposers import sobol_design
 from belief.errors import JournalError
 from embeddings import Identity
 
@@ -58,3 +59,34 @@ def test_a_schema_1_journal_is_refused(push_problem, tmp_path) -> None:
         con.execute("UPDATE meta SET value='1' WHERE key='schema'")
     with pytest.raises(JournalError, match="schema 1.*use a new journal path"):
         identify(obj, dec, grid, budget=6, seed=0, journal=path, progress=False, posterior=None)
+
+
+def test_sobol_design_is_the_initial_design_of_bo(push_problem) -> None:
+    obj, _ = push_problem()
+    dec = Identity(obj.space)
+    grid = Grid.for_decoder(dec, points_per_dim=11)
+    assert SobolDesign(3).propose(0, [], 5, grid).cells == sobol_design(grid, 5, 3)
+    assert BOProposer(3).initial.config() == {"kind": "sobol", "seed": 3}
+    bo = identify(obj, dec, grid, budget=5, n_init=5, seed=3, progress=False, posterior=None)
+    qmc = identify(obj, dec, grid, budget=9, n_init=5, q=2, seed=3, proposer=SobolDesign(3), progress=False,
+                   posterior=None)
+    cells = qmc.history["cell"].values.tolist()
+    assert cells[:5] == bo.history["cell"].values.tolist()
+    assert len(set(cells)) == 9
+
+
+def test_bo_takes_another_acquisition(push_problem) -> None:
+    obj, _ = push_problem()
+    dec = Identity(obj.space)
+    grid = Grid.for_decoder(dec, points_per_dim=11)
+
+    def lowest_free(model, points, available, *, q, prediction=None):
+        assert prediction is not None and prediction[0].shape == (points.shape[0],)
+        return [int(c) for c in np.flatnonzero(available)[:q]]
+
+    prop = BOProposer(0, acquisition=lowest_free)
+    res = identify(obj, dec, grid, budget=7, n_init=5, seed=0, proposer=prop, progress=False, posterior=None)
+    first = sorted(res.history["cell"].values[:5].tolist())
+    free = [c for c in range(grid.size) if c not in first]
+    assert res.history["cell"].values[5:].tolist() == free[:2]
+    assert res.config["proposer"]["acquisition"].endswith("lowest_free")
