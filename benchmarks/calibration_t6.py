@@ -45,12 +45,14 @@ MISMATCH = ModelOptions(dt=5e-4, friction=0.8, spin_damping=0.5, motor=MotorGain
 
 @dataclass
 class Outcome:
-    """One identification: per parameter the truth, interval (lower, upper) and verdict."""
+    """One identification: per parameter the truth, interval (lower, upper), verdict, and the flag of
+    the previous release (``narrow``: posterior std < half the prior's, nothing else checked)."""
 
     truth: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
     verdict: list[str]
+    narrow: np.ndarray | None = None
 
 
 def problem_data(seed: int, scenario: str, *, duration: float = 3.0, noise: float = 1e-3):
@@ -80,7 +82,8 @@ def identify_problem(seed: int, scenario: str, budgets: list[int], *, rule: str 
             res = identify(objective, decoder, grid, budget=budget, seed=seed, journal=journal, progress=False,
                            posterior_config=cfg)
             m = res.belief.marginals()
-            out[budget] = Outcome(theta, m["lower"].values, m["upper"].values, [str(v) for v in m["verdict"].values])
+            out[budget] = Outcome(theta, m["lower"].values, m["upper"].values, [str(v) for v in m["verdict"].values],
+                                  m["std"].values < 0.5 * m["prior_std"].values)
     return out
 
 
@@ -96,13 +99,15 @@ def shared_bias(seed: int, scenario: str, budget: int, *, windows: int = 6) -> n
     return 100.0 * (objective.evaluate_parts(theta) - best) / best
 
 
-def score(outcomes: list[Outcome]) -> dict[str, float]:
-    """Identified count, coverage of identified intervals, worst miss in widths, mean identified per problem."""
+def score(outcomes: list[Outcome], *, old_flag: bool = False) -> dict[str, float]:
+    """Identified count, coverage of identified intervals, worst miss in widths, mean identified per
+    problem; ``old_flag``: count the previous release's flag (``narrow``) instead of the verdicts."""
     n_id = hit = 0
     worst = 0.0
     for o in outcomes:
-        for j, v in enumerate(o.verdict):
-            if v != "identified":
+        flags = o.narrow if old_flag else [v == "identified" for v in o.verdict]
+        for j, flagged in enumerate(flags):
+            if not flagged:
                 continue
             n_id += 1
             width = max(o.upper[j] - o.lower[j], 1e-300)
@@ -149,6 +154,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{scenario:9s} rule={args.rule} budget={budget:4d} problems={len(outs)}: identified {s['identified']} "
                   f"({s['per_problem']:.2f} per problem), covered {s['covered']} = {s['coverage']:.0%}, "
                   f"worst miss {s['worst_widths']:.2f} widths", flush=True)
+            old = score(outs, old_flag=True)
+            print(f"    previous flag (std < prior std / 2) on the same P: identified {old['identified']}, covered "
+                  f"{old['covered']} = {old['coverage']:.0%}, worst miss {old['worst_widths']:.2f} widths", flush=True)
             widths = width_table(outs)
             print("    median 90% width, % of box: " + ", ".join(
                 f"{n} {w:.0f}" for n, w in zip(space.names, widths)), flush=True)

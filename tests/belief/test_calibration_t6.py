@@ -38,7 +38,10 @@ def test_identified_intervals_hold_the_truth(scenario: str, tmp_path) -> None:
 
 def test_score_counts_only_identified_parameters() -> None:
     o = bench.Outcome(truth=np.array([1.0, 2.0, 3.0]), lower=np.array([0.9, 2.5, 0.0]),
-                      upper=np.array([1.1, 2.6, 1.0]), verdict=["identified", "identified", "not identified"])
+                      upper=np.array([1.1, 2.6, 1.0]), verdict=["identified", "identified", "not identified"],
+                      narrow=np.array([False, False, True]))
     s = bench.score([o])
     assert s["identified"] == 2 and s["covered"] == 1
     assert s["worst_widths"] == pytest.approx(0.5 / 0.1)
+    old = bench.score([o], old_flag=True)                     # the previous flag: only the third
+    assert old["identified"] == 1 and old["covered"] == 0 and old["worst_widths"] == pytest.approx(2.0)
