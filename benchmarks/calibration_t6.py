@@ -100,8 +100,8 @@ def shared_bias(seed: int, scenario: str, budget: int, *, windows: int = 6) -> n
 
 
 def score(outcomes: list[Outcome], *, old_flag: bool = False) -> dict[str, float]:
-    """Identified count, coverage of identified intervals, worst miss in widths, mean identified per
-    problem; ``old_flag``: count the previous release's flag (``narrow``) instead of the verdicts."""
+    """Identified count, coverage of identified intervals, worst miss in widths (inf: a zero-width
+    interval that misses), mean identified per problem; ``old_flag``: count the previous release's flag (``narrow``) instead of the verdicts."""
     n_id = hit = 0
     worst = 0.0
     for o in outcomes:
@@ -110,10 +110,10 @@ def score(outcomes: list[Outcome], *, old_flag: bool = False) -> dict[str, float
             if not flagged:
                 continue
             n_id += 1
-            width = max(o.upper[j] - o.lower[j], 1e-300)
+            width = o.upper[j] - o.lower[j]
             miss = max(o.lower[j] - o.truth[j], o.truth[j] - o.upper[j], 0.0)
             hit += miss == 0.0
-            worst = max(worst, miss / width)
+            worst = max(worst, 0.0 if miss == 0.0 else miss / width if width > 0 else np.inf)
     return {"identified": n_id, "covered": hit, "coverage": hit / n_id if n_id else float("nan"),
             "worst_widths": worst, "per_problem": n_id / max(len(outcomes), 1)}
 
