@@ -139,4 +139,5 @@ def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], mode
     attrs = {"mode": config.mode, "level": config.level, "noise_var": noise.total, "noise_rule": noise.rule,
              "noise": noise.info, "segments": list(segments), "verified_mass": vmass, "n_evaluations": len(records),
              "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn}
-    return Belief.from_posterior(P, decoder, grid, verdicts=verdicts, reasons=reasons, attrs=attrs)
+    return Belief(P, theta_cells, space, decoder_config=decoder.config(), grid_config=grid.config(),
+                  verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level)
