@@ -140,4 +140,4 @@ def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], mode
              "noise": noise.info, "segments": list(segments), "verified_mass": vmass, "n_evaluations": len(records),
              "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn}
     return Belief(P, theta_cells, space, decoder_config=decoder.config(), grid_config=grid.config(),
-                  verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level)
+                  verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level, grid=grid)

@@ -149,13 +149,15 @@ class Belief:
     ``theta``: ``n x D``; ``space``: the parameter space of θ; ``decoder_config``/``grid_config``:
     ``decoder.config()`` and ``grid.config()``; ``verdicts``/``reasons``: one per parameter, both or
     neither (default from P alone, :func:`default_verdicts`); ``attrs``: JSON-able dict;
-    ``level``: credible level of intervals and summaries. Raises :class:`BeliefError`.
+    ``level``: credible level of intervals and summaries; ``grid``: the grid of ``grid_config`` when
+    the caller has it (else it is rebuilt from the config). Raises :class:`BeliefError`.
     """
 
     def __init__(self, P: "xr.DataArray | np.ndarray", theta: np.ndarray, space: ParameterSpace, *,
                  decoder_config: Mapping[str, Any], grid_config: Mapping[str, Any],
                  verdicts: Sequence[str] | None = None, reasons: Sequence[str] | None = None,
-                 attrs: Mapping[str, Any] | None = None, level: float = 0.9) -> None:
+                 attrs: Mapping[str, Any] | None = None, level: float = 0.9,
+                 grid: CandidateSet | None = None) -> None:
         if not isinstance(space, ParameterSpace):
             raise BeliefError(f"space must be a physics ParameterSpace, got {type(space).__name__}.")
         if not isinstance(decoder_config, Mapping) or not isinstance(decoder_config.get("kind"), str):
@@ -170,7 +172,9 @@ class Belief:
         self.decoder_config = _jsonable(dict(decoder_config), "decoder_config")
         self.grid_config = _jsonable(dict(grid_config), "grid_config")
         self.attrs: dict[str, Any] = _jsonable(dict(attrs or {}), "attrs")
-        self.P = _check_p(P, candidates_from_config(self.grid_config))
+        if grid is not None and _jsonable(dict(grid.config()), "grid.config()") != self.grid_config:
+            raise BeliefError("grid differs from grid_config; pass the grid whose config() is grid_config, or no grid.")
+        self.P = _check_p(P, grid if grid is not None else candidates_from_config(self.grid_config))
         th = np.array(theta, dtype=float)
         if th.shape != (self.P.size, space.dim) or not np.all(np.isfinite(th)):
             raise BeliefError(f"theta must be finite with shape ({self.P.size}, {space.dim}) (one decoded θ per cell, "
@@ -192,7 +196,7 @@ class Belief:
                               "with Grid.for_decoder(decoder).")
         theta = decoder.decode(np.asarray(grid.points))
         return cls(P, theta, decoder.space, decoder_config=decoder.config(), grid_config=grid.config(),
-                   verdicts=verdicts, reasons=reasons, attrs=attrs, level=level)
+                   verdicts=verdicts, reasons=reasons, attrs=attrs, level=level, grid=grid)
 
     # ------------------------------------------------------------------ reading it
     @property

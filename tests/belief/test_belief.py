@@ -262,3 +262,15 @@ def test_loading_what_is_not_a_belief_fails(tmp_path) -> None:
         Belief.from_dataset(ds.assign_attrs(attrs="{not json"))
     with pytest.raises(BeliefError, match="parameter space cannot be rebuilt"):
         Belief.from_dataset(ds.assign(lower_bound=("parameter", [5.0, 5.0])))
+
+
+def test_a_grid_that_is_not_grid_config_is_refused() -> None:
+    space = ParameterSpace.t6()
+    dec = Identity(space)
+    grid = SobolCandidates.for_decoder(dec, n=64, seed=1)
+    other = SobolCandidates.for_decoder(dec, n=64, seed=2)
+    P = grid.to_dataarray(np.full(64, 1 / 64), name="P")
+    b = Belief(P, dec.decode(grid.points), space, decoder_config=dec.config(), grid_config=grid.config(), grid=grid)
+    assert np.array_equal(b.p, P.values)
+    with pytest.raises(BeliefError, match="grid differs from grid_config"):
+        Belief(P, dec.decode(grid.points), space, decoder_config=dec.config(), grid_config=grid.config(), grid=other)
