@@ -26,13 +26,14 @@ geometry keep acting after the robot was assembled.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Mapping, Protocol, runtime_checkable
 
 import numpy as np
 from numba import njit
 
 from physics.errors import ParameterError
 
-__all__ = ["MotorGains", "motor_step"]
+__all__ = ["MotorGains", "motor_step", "rate_limited_step", "Actuator", "MotorActuator", "RateLimitedActuator"]
 
 
 @dataclass(frozen=True)
@@ -81,3 +82,65 @@ def motor_step(rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension:
         speed[j] = w
         r = rest[j] + radius * w * dt
         rest[j] = r if r > min_rest else min_rest
+
+
+@njit(cache=True)
+def rate_limited_step(rest: np.ndarray, speed: np.ndarray, target: np.ndarray, rate: float,
+                      min_rest: float, dt: float) -> None:
+    """Move each rest length toward its target at the fixed speed ``rate`` [m/s]:
+    L0' = max(L0 + clip(L_pref - L0, ±rate dt), L0_min); speed (24,) gets the rate of change [m/s]."""
+    step = rate * dt
+    for j in range(rest.shape[0]):
+        d = target[j] - rest[j]
+        if d > step:
+            d = step
+        elif d < -step:
+            d = -step
+        r = rest[j] + d
+        rest[j] = r if r > min_rest else min_rest
+        speed[j] = d / dt
+
+
+@runtime_checkable
+class Actuator(Protocol):
+    """The component that moves rest lengths toward targets, one physics step at a time.
+
+    ``step(rest, speed, target, tension)`` updates rest lengths (24,) [m] and the actuator's speed
+    state (24,) in place from the targets (24,) [m] and the cable tensions (24,) [N];
+    ``speed_from_rest(rate)`` turns a rest-length rate [m/s] into that speed state (for states
+    rebuilt from measured rest lengths)."""
+
+    def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None: ...
+
+    def speed_from_rest(self, rate: np.ndarray) -> np.ndarray: ...
+
+
+class MotorActuator:
+    """The motor model of this module (spool, driver gains, torque-speed limit) at θ's motor parameters."""
+
+    def __init__(self, params: Mapping[str, float], gains: MotorGains, dt: float) -> None:
+        self.radius = float(params["motor_radius"])
+        self._args = (params["maxTens"], params["targetVelocity"], params["motor_radius"], params["motor_friction"],
+                      params["motor_inertia"], gains.kp, gains.kv, gains.min_rest_length, dt)
+
+    def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
+        motor_step(rest, speed, target, tension, *self._args)
+
+    def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
+        """Spool speed ω = (dL0/dt) / r [rad/s]."""
+        return rate / self.radius
+
+
+class RateLimitedActuator:
+    """An ideal actuator: the rest length follows the target at ``rate`` [m/s], no motor dynamics."""
+
+    def __init__(self, rate: float, gains: MotorGains, dt: float) -> None:
+        if not (np.isfinite(rate) and rate > 0):
+            raise ParameterError(f"the actuator rate must be > 0 m/s, got {rate!r}.")
+        self.rate, self._min, self._dt = float(rate), gains.min_rest_length, dt
+
+    def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
+        rate_limited_step(rest, speed, target, self.rate, self._min, self._dt)
+
+    def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
+        return np.asarray(rate, float).copy()

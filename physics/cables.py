@@ -3,8 +3,14 @@
 For cable j between nodes a and b (anchors on the rod axis at the nodes):
 
     L = |p_b - p_a|,  u = (p_b - p_a)/L,  dL/dt = (v_b - v_a)·u
-    F_k = k (L - L0),  F_d = c dL/dt,  F_d clipped to ±|F_k| when |F_d| > |F_k|
-    F = F_k + F_d  if L > L0  else 0            (so 0 <= F <= 2 F_k: a cable never pushes)
+    s = L - L0,  k_eff = k (1 + h) if dL/dt > 0 else k      (h: hysteresis, stiffer lengthening)
+    F_k = max(0, k_eff s (1 + β s)),  F_d = c dL/dt,  F_d clipped to ±F_k
+    F = F_k + F_d  if s > 0  else 0             (so 0 <= F <= 2 F_k: a cable never pushes)
+
+h = 0 and β = 0 (the :class:`CableLaw` defaults) give NTRT's linear spring-damper; the effects
+``CableHysteresis`` and ``NonlinearStiffness`` (physics.effects) set them. :func:`cable_tension`
+is the one place the law is written: the simulation (:func:`cable_wrenches`) and the one-step
+predictor's actuator reconstruction (physics.predictor) both call it.
 
 node a receives +F u, node b receives -F u (NTRT ``tgSpringCable``; shared/reference/t6-superball.md).
 
@@ -25,10 +31,54 @@ DART step itself; benchmarks/physics_speed.py shows what the whole step costs no
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
 
-__all__ = ["rod_axes", "node_kinematics", "cable_wrenches", "cable_energy"]
+__all__ = ["CableLaw", "cable_tension", "cable_tensions", "rod_axes", "node_kinematics", "cable_wrenches",
+           "add_node_forces", "cable_energy"]
+
+
+@dataclass(frozen=True)
+class CableLaw:
+    """Coefficients of the cable force law: stiffness k [N/m], damping c [N s/m], quadratic
+    stiffness β [1/m] (F_k = k s (1 + β s)) and hysteresis h [-] (k (1 + h) while lengthening)."""
+
+    stiffness: float
+    damping: float
+    quadratic: float = 0.0
+    hysteresis: float = 0.0
+
+    def args(self) -> tuple[float, float, float, float]:
+        """(k, c, β, h), the positional arguments of the kernels."""
+        return (self.stiffness, self.damping, self.quadratic, self.hysteresis)
+
+
+@njit(cache=True)
+def cable_tension(stretch: float, rate: float, stiffness: float, damping: float,
+                  quadratic: float, hysteresis: float) -> float:
+    """Tension F >= 0 [N] of one cable from its stretch s = L - L0 [m] and rate dL/dt [m/s]."""
+    if stretch <= 0.0:
+        return 0.0
+    k = stiffness * (1.0 + hysteresis) if rate > 0.0 else stiffness
+    f_k = k * stretch * (1.0 + quadratic * stretch)
+    if f_k <= 0.0:
+        return 0.0
+    f_d = damping * rate
+    if f_d > f_k:
+        f_d = f_k
+    elif f_d < -f_k:
+        f_d = -f_k
+    return f_k + f_d
+
+
+@njit(cache=True)
+def cable_tensions(lengths: np.ndarray, rates: np.ndarray, rest_lengths: np.ndarray, stiffness: float,
+                   damping: float, quadratic: float, hysteresis: float, out: np.ndarray) -> None:
+    """Tensions (m,) of m cables from lengths, rates and rest lengths (m,) each, written into ``out``."""
+    for j in range(lengths.shape[0]):
+        out[j] = cable_tension(lengths[j] - rest_lengths[j], rates[j], stiffness, damping, quadratic, hysteresis)
 
 
 @njit(cache=True, fastmath=False)
@@ -77,7 +127,7 @@ def node_kinematics(positions: np.ndarray, velocities: np.ndarray, half_lengths:
 @njit(cache=True)
 def cable_wrenches(positions: np.ndarray, velocities: np.ndarray, half_lengths: np.ndarray,
                    end_a: np.ndarray, end_b: np.ndarray, rest_lengths: np.ndarray,
-                   stiffness: float, damping: float, spin_damping: float,
+                   stiffness: float, damping: float, quadratic: float, hysteresis: float, spin_damping: float,
                    forces_out: np.ndarray, tension_out: np.ndarray, length_out: np.ndarray) -> float:
     """Generalised forces (36,) of all cables on the six FreeJoints, written into ``forces_out``.
 
@@ -102,13 +152,7 @@ def cable_wrenches(positions: np.ndarray, velocities: np.ndarray, half_lengths: 
             continue
         ux, uy, uz = dx / length, dy / length, dz / length
         rate = (v[b, 0] - v[a, 0]) * ux + (v[b, 1] - v[a, 1]) * uy + (v[b, 2] - v[a, 2]) * uz
-        f_k = stiffness * stretch
-        f_d = damping * rate
-        if f_d > f_k:
-            f_d = f_k
-        elif f_d < -f_k:
-            f_d = -f_k
-        f = f_k + f_d
+        f = cable_tension(stretch, rate, stiffness, damping, quadratic, hysteresis)
         tension_out[j] = f
         node_f[a, 0] += f * ux
         node_f[a, 1] += f * uy
@@ -137,7 +181,27 @@ def cable_wrenches(positions: np.ndarray, velocities: np.ndarray, half_lengths: 
     return fastest
 
 
-def cable_energy(lengths: np.ndarray, rest_lengths: np.ndarray, stiffness: float) -> float:
-    """Elastic energy Σ_j ½ k max(0, L_j - L0_j)² [J] of the cables."""
+@njit(cache=True)
+def add_node_forces(axes: np.ndarray, half_lengths: np.ndarray, node_forces: np.ndarray,
+                    forces_out: np.ndarray) -> None:
+    """Add node forces (12 x 3) [N] to the FreeJoint generalised forces (36,): per rod the world
+    torque (h a) × (f1 - f0) about the centre and the force f0 + f1 (the layout of cable_wrenches)."""
+    for i in range(6):
+        h = half_lengths[i]
+        ax, ay, az = axes[i, 0], axes[i, 1], axes[i, 2]
+        f0 = node_forces[2 * i]
+        f1 = node_forces[2 * i + 1]
+        dfx, dfy, dfz = f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2]
+        forces_out[6 * i] += h * (ay * dfz - az * dfy)
+        forces_out[6 * i + 1] += h * (az * dfx - ax * dfz)
+        forces_out[6 * i + 2] += h * (ax * dfy - ay * dfx)
+        forces_out[6 * i + 3] += f0[0] + f1[0]
+        forces_out[6 * i + 4] += f0[1] + f1[1]
+        forces_out[6 * i + 5] += f0[2] + f1[2]
+
+
+def cable_energy(lengths: np.ndarray, rest_lengths: np.ndarray, stiffness: float, quadratic: float = 0.0) -> float:
+    """Elastic energy Σ_j k (s_j²/2 + β s_j³/3) [J], s_j = max(0, L_j - L0_j), of the cables
+    (the potential of F_k = k s (1 + β s); hysteresis has none: it dissipates)."""
     stretch = np.maximum(0.0, np.asarray(lengths) - np.asarray(rest_lengths))
-    return float(0.5 * stiffness * np.sum(stretch**2))
+    return float(stiffness * np.sum(stretch**2 / 2 + quadratic * stretch**3 / 3))

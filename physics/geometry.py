@@ -16,10 +16,12 @@ from itertools import combinations
 
 import numpy as np
 
+from physics.errors import PhysicsError
+
 __all__ = [
     "N_RODS", "N_NODES", "N_CABLES", "ROD_NODES", "CABLE_NODES", "CABLE_NAMES",
     "node_positions", "closed_faces", "RodMassProperties", "rod_mass_properties",
-    "rotation_onto_face",
+    "rotation_onto_face", "rod_poses_from_nodes",
 ]
 
 N_RODS = 6
@@ -112,3 +114,41 @@ def rod_mass_properties(density: float, radius: float, density_mp: float, radius
     transverse = (2 * (m_e * (3 * radius**2 + end_length**2) / 12 + m_e * d**2)
                   + m_mp * (3 * radius_mp**2 + rod_length_mp**2) / 12)
     return RodMassProperties(float(2 * m_e + m_mp), float(axial), float(transverse), float(end_length))
+
+
+def _rotvec_z_to(axis: np.ndarray) -> np.ndarray:
+    """Rotation vectors (n x 3) of the smallest rotations taking e_z to each unit ``axis`` (n x 3)."""
+    axis = np.atleast_2d(axis)
+    ez = np.array([0.0, 0.0, 1.0])
+    cross = np.cross(ez, axis)
+    sin = np.linalg.norm(cross, axis=1)
+    cos = axis @ ez
+    angle = np.arctan2(sin, cos)
+    out = np.zeros_like(axis)
+    ok = sin > 1e-12
+    out[ok] = cross[ok] / sin[ok, None] * angle[ok, None]
+    flip = (~ok) & (cos < 0)
+    out[flip] = np.array([np.pi, 0.0, 0.0])
+    return out
+
+
+def rod_poses_from_nodes(nodes: np.ndarray, node_velocities: np.ndarray | None = None):
+    """FreeJoint positions and velocities (36,) from node positions (12 x 3) and velocities.
+
+    Centre c = (n0 + n1)/2, axis a = (n1 - n0)/|n1 - n0|, v = (v0 + v1)/2,
+    ω = a × (v1 - v0) / |n1 - n0| (the spin about the axis is unobservable from nodes and set to
+    0; with anchors on the axis and axisymmetric rods it does not act on the cables).
+    """
+    n0, n1 = nodes[0::2], nodes[1::2]
+    d = n1 - n0
+    length = np.linalg.norm(d, axis=1)
+    if np.any(~np.isfinite(length)) or np.any(length < 1e-9):
+        raise PhysicsError("Cannot place rods: some node pairs coincide or are not finite.")
+    axis = d / length[:, None]
+    q = np.concatenate([_rotvec_z_to(axis), 0.5 * (n0 + n1)], axis=1).reshape(-1)
+    if node_velocities is None:
+        return q, np.zeros(36)
+    v0, v1 = node_velocities[0::2], node_velocities[1::2]
+    omega = np.cross(axis, v1 - v0) / length[:, None]
+    dq = np.concatenate([omega, 0.5 * (v0 + v1)], axis=1).reshape(-1)
+    return q, dq

@@ -22,20 +22,28 @@ larger than the middle radius, a rod lying on the ground touches it with its cap
 
 The robot is built with a closed face (three nodes joined by cables) facing the ground, dropped
 from ``drop_height`` and settled with the motors holding their build rest lengths.
+
+Effects (physics.effects) extend the model: ``T6Model(θ, effects=[...])`` takes θ in
+``model_space(effects)`` (the 15 T6 parameters, then the effects'), and each effect edits the
+:class:`~physics.effects.ModelSetup` the world is built and stepped from (gravity vector, cap
+radius, point masses, cable law, actuator, command delay, extra node forces, observation offset).
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import dartpy as dart
 import numpy as np
 
-from physics.actuators import MotorGains, motor_step
-from physics.cables import cable_energy, cable_wrenches, node_kinematics
+from physics.actuators import MotorGains
+from physics.cables import add_node_forces, cable_energy, cable_wrenches, node_kinematics
+from physics.effects.base import Effect, ModelSetup, model_space, split_theta
 from physics.errors import ParameterError, PhysicsError
 from physics.geometry import (
-    CABLE_NODES, N_CABLES, closed_faces, node_positions, rod_mass_properties, rotation_onto_face,
+    CABLE_NODES, N_CABLES, closed_faces, node_positions, rod_mass_properties, rod_poses_from_nodes,
+    rotation_onto_face,
 )
 from physics.parameters import ParameterSpace
 
@@ -95,44 +103,6 @@ class RobotState:
     time: float
 
 
-def _rotvec_z_to(axis: np.ndarray) -> np.ndarray:
-    """Rotation vectors (n x 3) of the smallest rotations taking e_z to each unit ``axis`` (n x 3)."""
-    axis = np.atleast_2d(axis)
-    ez = np.array([0.0, 0.0, 1.0])
-    cross = np.cross(ez, axis)
-    sin = np.linalg.norm(cross, axis=1)
-    cos = axis @ ez
-    angle = np.arctan2(sin, cos)
-    out = np.zeros_like(axis)
-    ok = sin > 1e-12
-    out[ok] = cross[ok] / sin[ok, None] * angle[ok, None]
-    flip = (~ok) & (cos < 0)
-    out[flip] = np.array([np.pi, 0.0, 0.0])
-    return out
-
-
-def rod_poses_from_nodes(nodes: np.ndarray, node_velocities: np.ndarray | None = None):
-    """FreeJoint positions and velocities (36,) from node positions (12 x 3) and velocities.
-
-    Centre c = (n0 + n1)/2, axis a = (n1 - n0)/|n1 - n0|, v = (v0 + v1)/2,
-    ω = a × (v1 - v0) / |n1 - n0| (the spin about the axis is unobservable from nodes and set to
-    0; with anchors on the axis and axisymmetric rods it does not act on the cables).
-    """
-    n0, n1 = nodes[0::2], nodes[1::2]
-    d = n1 - n0
-    length = np.linalg.norm(d, axis=1)
-    if np.any(~np.isfinite(length)) or np.any(length < 1e-9):
-        raise PhysicsError("Cannot place rods: some node pairs coincide or are not finite.")
-    axis = d / length[:, None]
-    q = np.concatenate([_rotvec_z_to(axis), 0.5 * (n0 + n1)], axis=1).reshape(-1)
-    if node_velocities is None:
-        return q, np.zeros(36)
-    v0, v1 = node_velocities[0::2], node_velocities[1::2]
-    omega = np.cross(axis, v1 - v0) / length[:, None]
-    dq = np.concatenate([omega, 0.5 * (v0 + v1)], axis=1).reshape(-1)
-    return q, dq
-
-
 def build_rest_lengths(params: Mapping[str, float]) -> np.ndarray:
     """L0_build = L_build - pretension / k for each cable (24,) [m], from geometry and θ."""
     nodes = node_positions(params["rod_length"], params["rod_space"])
@@ -158,18 +128,25 @@ class T6Model:
 
     def __init__(self, theta: "np.ndarray | Mapping[str, float] | None" = None, *,
                  space: ParameterSpace | None = None, options: ModelOptions | None = None,
-                 check_bounds: bool = False) -> None:
-        self.space = space or _SPACE
-        if self.space.names != _SPACE.names:
+                 check_bounds: bool = False, effects: Sequence[Effect] = ()) -> None:
+        self.effects = tuple(effects)
+        expected = model_space(self.effects)
+        self.space = space or expected
+        if self.space.names != expected.names:
             raise ParameterError(
-                f"T6Model needs the 15 T6 parameters in the order {list(_SPACE.names)}, got {list(self.space.names)}."
+                f"T6Model needs the T6 parameters and those of effects {[e.name for e in self.effects]}: "
+                f"{list(expected.names)} in this order, got {list(self.space.names)}; build the space "
+                "with physics.effects.model_space(effects)."
             )
         self.options = options or ModelOptions()
         self.theta = self.space.as_array(theta, check_bounds=check_bounds)
         if self.theta.ndim != 1:
-            raise ParameterError(f"T6Model takes one θ of shape (15,), got {self.theta.shape}.")
-        self.params = dict(zip(self.space.names, self.theta.tolist()))
+            raise ParameterError(f"T6Model takes one θ of shape ({self.space.dim},), got {self.theta.shape}.")
+        self.params, self.effect_values = split_theta(self.theta, self.space, self.effects, _SPACE.dim)
         p = self.params
+        self.setup = ModelSetup.base(p, self.options.gravity, self.options.motor, self.options.dt)
+        for effect, values in zip(self.effects, self.effect_values):
+            effect.apply(self.setup, values, p)
         self.mass_properties = rod_mass_properties(
             p["density"], p["radius"], p["density_mp"], p["radius_mp"], p["rod_length"], p["rod_length_mp"])
         self.half_lengths = np.full(6, 0.5 * p["rod_length"])
@@ -180,6 +157,9 @@ class T6Model:
         self.encoder_offset = self.build_rest_length - self.encoder_zero
         c_spin = self.options.spin_damping
         self._spin_coefficient = c_spin / (1.0 + c_spin * self.options.dt / self.mass_properties.axial)
+        self._cable_args = self.setup.cable.args()
+        self._pending: deque = deque()
+        self._node_forces = np.zeros((12, 3))
         self._forces = np.zeros(36)
         self._tension = np.zeros(N_CABLES)
         self._length = np.zeros(N_CABLES)
@@ -188,10 +168,10 @@ class T6Model:
 
     # ------------------------------------------------------------------ construction
     def _build_world(self) -> None:
-        opt, p, mp = self.options, self.params, self.mass_properties
+        opt, p = self.options, self.params
         world = dart.simulation.World()
         world.setTimeStep(opt.dt)
-        world.setGravity([0.0, 0.0, -opt.gravity])
+        world.setGravity(self.setup.gravity)
         world.setCollisionDetector(dart.collision.OdeCollisionDetector())
         deact = world.getDeactivationOptions()
         deact.mEnabled = False
@@ -201,10 +181,9 @@ class T6Model:
             joint, body = robot.createFreeJointAndBodyNodePair(None)
             joint.setName(f"rod{i}_joint")
             body.setName(f"rod{i}")
-            body.setMass(mp.mass)
-            body.setMomentOfInertia(mp.transverse, mp.transverse, mp.axial, 0.0, 0.0, 0.0)
+            self._set_inertia(body, i)
             for sign in (-1.0, 1.0):
-                cap = body.createShapeNode(dart.dynamics.SphereShape(p["radius"]))
+                cap = body.createShapeNode(dart.dynamics.SphereShape(self.setup.cap_radius))
                 cap.setRelativeTranslation([0.0, 0.0, sign * 0.5 * p["rod_length"]])
                 cap.createCollisionAspect()
                 cap.createDynamicsAspect().setFrictionCoeff(opt.friction)
@@ -222,6 +201,18 @@ class T6Model:
             world.addSkeleton(ground)
         self.world, self.robot = world, robot
 
+    def _set_inertia(self, body, rod: int) -> None:
+        """Mass, inertia about the centre of mass and its offset along the axis, with point masses
+        m_k at z_k: M' = M + Σm_k, z_c = Σ m_k z_k / M', I_t' = I_t + M z_c² + Σ m_k (z_k - z_c)²."""
+        mp = self.mass_properties
+        extra = [(m, z) for r, m, z in self.setup.point_masses if r == rod]
+        mass = mp.mass + sum(m for m, _ in extra)
+        z_c = sum(m * z for m, z in extra) / mass
+        transverse = mp.transverse + mp.mass * z_c**2 + sum(m * (z - z_c) ** 2 for m, z in extra)
+        body.setMass(mass)
+        body.setMomentOfInertia(transverse, transverse, mp.axial, 0.0, 0.0, 0.0)
+        body.setLocalCOM([0.0, 0.0, z_c])
+
     def initial_nodes(self) -> np.ndarray:
         """Node positions (12 x 3) at build: chosen face down, lowest cap ``drop_height`` above ground."""
         p = self.params
@@ -229,7 +220,7 @@ class T6Model:
         nodes = nodes @ rotation_onto_face(nodes, _FACES[self.options.face]).T
         nodes[:, :2] -= nodes[:, :2].mean(axis=0)
         if self.options.ground:
-            nodes[:, 2] += p["radius"] + self.options.drop_height - nodes[:, 2].min()
+            nodes[:, 2] += self.setup.cap_radius + self.options.drop_height - nodes[:, 2].min()
         return nodes
 
     def reset(self) -> None:
@@ -241,6 +232,7 @@ class T6Model:
         self.rest_length = self.build_rest_length.copy()
         self.motor_speed = np.zeros(N_CABLES)
         self.target = self.build_rest_length.copy()
+        self._pending.clear()
         self._update_cables()
 
     # ------------------------------------------------------------------ raw DART state
@@ -260,35 +252,60 @@ class T6Model:
 
     # ------------------------------------------------------------------ stepping
     def _update_cables(self) -> float:
-        """Recompute cable forces; returns the largest squared node speed (NaN if not finite)."""
-        return cable_wrenches(self.robot.getPositions(), self.robot.getVelocities(), self.half_lengths,
-                       self.end_a, self.end_b, self.rest_length, self.params["stiffnessActive"],
-                       self.params["damping"], self._spin_coefficient,
-                       self._forces, self._tension, self._length)
+        """Recompute cable forces (plus the effects' node forces); returns the largest squared node
+        speed (NaN if not finite)."""
+        q, dq = self.robot.getPositions(), self.robot.getVelocities()
+        fastest = cable_wrenches(q, dq, self.half_lengths, self.end_a, self.end_b, self.rest_length,
+                                 *self._cable_args, self._spin_coefficient, self._forces, self._tension, self._length)
+        if self.setup.force_terms:
+            nodes, velocities, axes = node_kinematics(q, dq, self.half_lengths)
+            extra = self._node_forces
+            extra[:] = 0.0
+            for term in self.setup.force_terms:
+                term(nodes, velocities, extra)
+            add_node_forces(axes, self.half_lengths, extra, self._forces)
+        return fastest
 
-    def command(self, target_readings: np.ndarray | None) -> None:
-        """Set the motor targets from rest lengths as the encoders read them (24,) [m]."""
+    def command(self, target_readings: np.ndarray | None, reference: str = "encoder") -> None:
+        """Send motor targets (24,) [m]: rest lengths as the encoders read them (``reference=
+        "encoder"``) or true rest lengths (``"true"``). With a command delay τ the actuators see
+        them τ seconds later."""
         if target_readings is None:
             return
         target = np.asarray(target_readings, dtype=float)
         if target.shape != (N_CABLES,) or not np.all(np.isfinite(target)):
             raise PhysicsError(f"command must be 24 finite target rest lengths [m], got shape {target.shape}.")
-        self.target = target + self.encoder_offset
+        target = target + self.encoder_offset if reference == "encoder" else target.copy()
+        if self.setup.command_delay > 0:
+            self._pending.append((self.time + self.setup.command_delay, target))
+        else:
+            self.target = target
 
-    def step(self, target_readings: np.ndarray | None = None, n: int = 1) -> None:
-        """Advance ``n`` physics steps of ``dt`` with the given motor targets (encoder metres)."""
-        self.command(target_readings)
-        p, gains = self.params, self.options.motor
-        motor = (p["maxTens"], p["targetVelocity"], p["motor_radius"], p["motor_friction"], p["motor_inertia"],
-                 gains.kp, gains.kv, gains.min_rest_length, self.options.dt)
-        world, robot, forces = self.world, self.robot, self._forces
-        limit = self.options.max_speed ** 2
+    def prime_commands(self, times: np.ndarray, targets: np.ndarray, reference: str = "encoder") -> None:
+        """Load the commands sent at ``times`` (k,) [s] <= now, targets (k x 24), into the delay line:
+        the latest one due before now becomes the current target, later ones stay pending."""
+        self._pending.clear()
+        delay, now = self.setup.command_delay, self.time
+        offset = self.encoder_offset if reference == "encoder" else 0.0
+        for t, target in zip(times, targets):
+            if t + delay <= now + 1e-9:
+                self.target = np.asarray(target, float) + offset
+            else:
+                self._pending.append((float(t) + delay, np.asarray(target, float) + offset))
+
+    def step(self, target_readings: np.ndarray | None = None, n: int = 1, reference: str = "encoder") -> None:
+        """Advance ``n`` physics steps of ``dt`` with the given motor targets (see :meth:`command`)."""
+        self.command(target_readings, reference)
+        world, robot, forces, actuator = self.world, self.robot, self._forces, self.setup.actuator
+        limit, pending = self.options.max_speed ** 2, self._pending
         for _ in range(n):
+            while pending and pending[0][0] <= world.getTime() + 1e-9:
+                self.target = pending.popleft()[1]
             if not self._update_cables() <= limit:
                 self.check()   # raises PhysicsError before DART sees absurd coordinates
             robot.setForces(forces)
             world.step()
-            motor_step(self.rest_length, self.motor_speed, self.target, self._tension, *motor)
+            actuator.step(self.rest_length, self.motor_speed, self.target, self._tension)
         if not self._update_cables() <= limit:
             self.check()
 
@@ -345,6 +362,14 @@ class T6Model:
     def node_velocities(self) -> np.ndarray:
         return node_kinematics(self._positions(), self._velocities(), self.half_lengths)[1]
 
+    def observe(self, nodes: np.ndarray) -> np.ndarray:
+        """What the sensors report for true node positions (... x 12 x 3): nodes + observation offset."""
+        return nodes + self.setup.observation_offset
+
+    def unobserve(self, observed: np.ndarray) -> np.ndarray:
+        """True node positions behind observed ones (the inverse of :meth:`observe`)."""
+        return observed - self.setup.observation_offset
+
     def tensions(self) -> np.ndarray:
         """Cable tensions (24,) [N], always >= 0."""
         return self._tension.copy()
@@ -357,13 +382,14 @@ class T6Model:
         return self.rest_length - self.encoder_offset
 
     def com(self) -> np.ndarray:
-        """Centre of mass (3,) [m] (all rods have the same mass)."""
-        return self._positions().reshape(6, 6)[:, 3:].mean(axis=0)
+        """Centre of mass (3,) [m] of the six rods (with any point masses)."""
+        return np.asarray(self.robot.getCOM(), float)
 
     def energy(self) -> dict[str, float]:
-        """Kinetic, gravitational and elastic energy [J] and their sum ``total``."""
+        """Kinetic, gravitational (-M g⃗·c) and elastic energy [J] and their sum ``total``."""
         kinetic = float(self.robot.computeKineticEnergy())
-        gravity = float(self.mass_properties.mass * 6 * self.options.gravity * self.com()[2])
-        elastic = cable_energy(self._length, self.rest_length, self.params["stiffnessActive"])
+        gravity = float(-self.robot.getMass() * self.setup.gravity @ self.com())
+        cable = self.setup.cable
+        elastic = cable_energy(self._length, self.rest_length, cable.stiffness, cable.quadratic)
         return {"kinetic": kinetic, "gravity": gravity, "elastic": elastic,
                 "total": kinetic + gravity + elastic}

@@ -16,7 +16,7 @@ EA, EB = np.ascontiguousarray(CABLE_NODES[:, 0]), np.ascontiguousarray(CABLE_NOD
 
 def _wrench(q, dq, rest, k=800.0, c=200.0, spin=0.0):
     f, t, L = np.zeros(36), np.zeros(24), np.zeros(24)
-    cable_wrenches(q, dq, HALF, EA, EB, rest, k, c, spin, f, t, L)
+    cable_wrenches(q, dq, HALF, EA, EB, rest, k, c, 0.0, 0.0, spin, f, t, L)
     return f, t, L
 
 

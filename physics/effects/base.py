@@ -1,0 +1,128 @@
+"""Effects: physical effects the T6 model can include, as composable parts of the model.
+
+An :class:`Effect` declares its parameters (:class:`~physics.parameters.Parameter`: name, unit,
+bounds; ``nominal`` is the value that switches the effect off when one exists, see
+:attr:`Effect.off`) and one hook, :meth:`Effect.apply`, that edits the :class:`ModelSetup` of a
+model before its world is built. Through the setup an effect may
+
+- change the world's setup: the gravity vector (a tilted ground), the contact radius of the end
+  caps, point masses on rods;
+- add forces each physics step: ``force_terms``, kernels ``f(nodes, velocities, out)`` that add
+  node forces (12 x 3) [N];
+- replace a component: the cable law's coefficients (``cable``), the actuator (``actuator``),
+  the delay between a command and the actuator seeing it (``command_delay``);
+- transform observations: ``observation_offset`` (3,) [m], added to every observed node.
+
+A model built from the T6 and effects e_1..e_m has the parameter space
+θ = (15 T6 parameters, parameters of e_1, ..., parameters of e_m) (:func:`model_space`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, ClassVar, Mapping, Sequence
+
+import numpy as np
+
+from physics.actuators import Actuator, MotorActuator, MotorGains
+from physics.cables import CableLaw
+from physics.errors import ParameterError
+from physics.parameters import Parameter, ParameterSpace
+
+__all__ = ["Effect", "ModelSetup", "ForceTerm", "model_space", "split_theta"]
+
+#: f(nodes (12 x 3) [m], velocities (12 x 3) [m/s], out (12 x 3) [N]): add node forces into ``out``.
+ForceTerm = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
+
+
+@dataclass
+class ModelSetup:
+    """Everything an effect may change, read by :class:`physics.tensegrity.T6Model` when it builds
+    and steps its world. Shapes: gravity (3,) [m/s²], observation_offset (3,) [m]; point_masses
+    holds (rod index, mass [kg], position along the rod axis from its centre [m])."""
+
+    gravity: np.ndarray
+    cap_radius: float
+    cable: CableLaw
+    actuator: Actuator
+    gains: MotorGains
+    dt: float
+    command_delay: float = 0.0
+    point_masses: list[tuple[int, float, float]] = field(default_factory=list)
+    force_terms: list[ForceTerm] = field(default_factory=list)
+    observation_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @classmethod
+    def base(cls, params: Mapping[str, float], gravity: float, gains: MotorGains, dt: float) -> "ModelSetup":
+        """The T6 without effects: vertical gravity, caps of radius ``radius``, linear cables, motors."""
+        return cls(gravity=np.array([0.0, 0.0, -gravity]), cap_radius=float(params["radius"]),
+                   cable=CableLaw(float(params["stiffnessActive"]), float(params["damping"])),
+                   actuator=MotorActuator(params, gains, dt), gains=gains, dt=float(dt))
+
+
+class Effect:
+    """A physical effect: parameters and a hook that edits a :class:`ModelSetup`.
+
+    Subclasses set ``name`` (unique in a model), ``description`` and ``switchable`` (False for an
+    effect that replaces a component: no parameter value turns it off, only leaving it out does),
+    and implement :meth:`parameters` and :meth:`apply`. Options that are not identified (which rod
+    carries a point mass) are constructor arguments and appear in :meth:`config`.
+    """
+
+    name: ClassVar[str] = ""
+    description: ClassVar[str] = ""
+    switchable: ClassVar[bool] = True
+
+    def parameters(self) -> tuple[Parameter, ...]:
+        raise NotImplementedError
+
+    def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
+        """Edit ``setup`` for the effect's parameter ``values`` (by name) at the T6 parameters ``params``."""
+        raise NotImplementedError
+
+    @property
+    def off(self) -> dict[str, float] | None:
+        """Parameter values that make the model equal to the model without the effect, or None."""
+        return {p.name: p.nominal for p in self.parameters()} if self.switchable else None
+
+    def config(self) -> dict:
+        """A JSON-able description: the effect's name and its options."""
+        return {"effect": self.name}
+
+    def __repr__(self) -> str:
+        options = {k: v for k, v in self.config().items() if k != "effect"}
+        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in options.items())})"
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Effect) and self.config() == other.config()
+
+    def __hash__(self) -> int:
+        return hash(repr(sorted(self.config().items())))
+
+
+def model_space(effects: Sequence[Effect] = (), base: ParameterSpace | None = None) -> ParameterSpace:
+    """The parameter space of the T6 plus ``effects``: base parameters first, then each effect's."""
+    base = base or ParameterSpace.t6()
+    params = list(base.parameters)
+    names = set(base.names)
+    seen: set[str] = set()
+    for effect in effects:
+        if not isinstance(effect, Effect):
+            raise ParameterError(f"effects must be physics.effects.Effect instances, got {type(effect).__name__}.")
+        if effect.name in seen:
+            raise ParameterError(f"effect {effect.name!r} is listed twice; each effect may appear once in a model.")
+        seen.add(effect.name)
+        for p in effect.parameters():
+            if p.name in names:
+                raise ParameterError(f"effect {effect.name!r} declares parameter {p.name!r}, which the model "
+                                     "already has; rename it.")
+            names.add(p.name)
+            params.append(p)
+    return ParameterSpace(tuple(params))
+
+
+def split_theta(theta: np.ndarray, space: ParameterSpace, effects: Sequence[Effect],
+                n_base: int) -> tuple[dict[str, float], list[dict[str, float]]]:
+    """θ (D,) -> (T6 parameters by name, one dict of parameter values per effect)."""
+    values = dict(zip(space.names, np.asarray(theta, float).tolist()))
+    base = {n: values[n] for n in space.names[:n_base]}
+    return base, [{p.name: values[p.name] for p in e.parameters()} for e in effects]
