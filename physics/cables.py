@@ -3,7 +3,9 @@
 For cable j between nodes a and b (anchors on the rod axis at the nodes):
 
     L = |p_b - p_a|,  u = (p_b - p_a)/L,  dL/dt = (v_b - v_a)·u
-    s = L - L0,  k_eff = k (1 + h) if dL/dt > 0 else k      (h: hysteresis, stiffer lengthening)
+    s = L - L0,  k_eff = k (1 + h (1 + tanh((dL/dt) / v_h)) / 2)   (h: hysteresis: k (1 + h) while
+                                                 lengthening, k while shortening; v_h = 0.01 m/s
+                                                 smooths the switch so the law stays continuous)
     F_k = max(0, k_eff s (1 + β s)),  F_d = c dL/dt,  F_d clipped to ±F_k
     F = F_k + F_d  if s > 0  else 0             (so 0 <= F <= 2 F_k: a cable never pushes)
 
@@ -40,6 +42,10 @@ __all__ = ["CableLaw", "cable_tension", "cable_tensions", "rod_axes", "node_kine
            "add_node_forces", "cable_energy"]
 
 
+#: Rate scale v_h [m/s] of the smooth switch between shortening and lengthening stiffness.
+HYSTERESIS_RATE = 0.01
+
+
 @dataclass(frozen=True)
 class CableLaw:
     """Coefficients of the cable force law: stiffness k [N/m], damping c [N s/m], quadratic
@@ -61,7 +67,9 @@ def cable_tension(stretch: float, rate: float, stiffness: float, damping: float,
     """Tension F >= 0 [N] of one cable from its stretch s = L - L0 [m] and rate dL/dt [m/s]."""
     if stretch <= 0.0:
         return 0.0
-    k = stiffness * (1.0 + hysteresis) if rate > 0.0 else stiffness
+    k = stiffness
+    if hysteresis != 0.0:
+        k = stiffness * (1.0 + hysteresis * 0.5 * (1.0 + np.tanh(rate / HYSTERESIS_RATE)))
     f_k = k * stretch * (1.0 + quadratic * stretch)
     if f_k <= 0.0:
         return 0.0

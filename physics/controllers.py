@@ -109,7 +109,7 @@ class FlopController:
     def _planner_model(self, model):
         if self._planner is None:
             from physics.tensegrity import T6Model
-            self._planner = T6Model(None, space=model.space, options=model.options)
+            self._planner = T6Model(None, options=model.options)   # its own nominal model, no effects
         return self._planner
 
     def plan(self, model) -> FlopPlan:

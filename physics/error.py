@@ -34,9 +34,12 @@ from __future__ import annotations
 import hashlib
 from typing import Mapping, Sequence
 
+import copy
+
 import numpy as np
 import xarray as xr
 
+from physics.effects.base import Effect, model_space
 from physics.errors import ParameterError, TrajectoryFormatError
 from physics.objective import BatchResult, OnResult, Row, check_windows, evaluate_row
 from physics.parameters import ParameterSpace
@@ -61,14 +64,15 @@ class TrajectoryError:
     motor parameters act on E), "measured" (rest lengths from the data's encoder readings: the
     motor parameters then barely act on a one-step error) or "auto" (measured if available);
     loss: "norm" or "squared"; options: model options (dt must divide the sampling interval);
-    windows: segments per trajectory (module docstring); address: a dask scheduler address for
+    windows: segments per trajectory (module docstring); effects: physics.effects parts added to
+    the T6 (θ then lives in ``model_space(effects)``: 15 T6 parameters, then the effects'); address: a dask scheduler address for
     batches (default: a local cluster of ``n_workers`` single-threaded processes; ``n_workers=0``
     evaluates batches serially in this process).
     """
 
     def __init__(self, trajectories: "xr.Dataset | Sequence[xr.Dataset]", *, space: ParameterSpace | None = None,
                  horizon: "int | str" = 1, actuators: str = "reconstructed", loss: str = "norm",
-                 options: ModelOptions | None = None, windows: int = 3,
+                 options: ModelOptions | None = None, windows: int = 3, effects: Sequence[Effect] = (),
                  address: str | None = None, n_workers: int = 2) -> None:
         if isinstance(trajectories, xr.Dataset):
             trajectories = [trajectories]
@@ -76,7 +80,11 @@ class TrajectoryError:
         if not trajectories:
             raise TrajectoryFormatError("TrajectoryError needs at least one trajectory, got an empty sequence.")
         self.trajectories = [validate_trajectory(ds) for ds in trajectories]
-        self.space = space or ParameterSpace.t6()
+        self.effects = tuple(effects)
+        self.space = space or model_space(self.effects)
+        if self.space.names != model_space(self.effects).names:
+            raise ParameterError(f"space must have the parameters {list(model_space(self.effects).names)} of the "
+                                 f"T6 and its effects, got {list(self.space.names)}.")
         if horizon != "rollout" and not (isinstance(horizon, (int, np.integer)) and horizon >= 1):
             raise ParameterError(f"horizon must be an integer >= 1 or 'rollout', got {horizon!r}.")
         if actuators not in ("auto", "measured", "reconstructed"):
@@ -128,7 +136,8 @@ class TrajectoryError:
                 digest.update(np.ascontiguousarray(arr).tobytes())
         return {"kind": "T6 TrajectoryError", "data_sha256": digest.hexdigest(), "horizon": str(self.horizon),
                 "actuators": self.actuators, "loss": self.loss, "options": repr(self.options),
-                "parameters": list(self.space.names), "windows": self.windows, "segments": list(self.segments)}
+                "parameters": list(self.space.names), "windows": self.windows, "segments": list(self.segments),
+                "effects": [e.config() for e in self.effects]}
 
     # ------------------------------------------------------------------ windows and segments
     def _windows(self, obs: ObservedStates) -> list[tuple[int, int]]:
@@ -169,7 +178,7 @@ class TrajectoryError:
 
     def _predict(self, theta: np.ndarray) -> list[np.ndarray]:
         """Predicted nodes (T x 12 x 3) per trajectory, NaN where not predicted. One pass of the simulator."""
-        model = T6Model(theta, space=self.space, options=self.options)
+        model = T6Model(theta, space=self.space, options=self.options, effects=self.effects)
         out = []
         for obs in self._observed:
             pred = np.full_like(obs.nodes, np.nan)
@@ -256,6 +265,14 @@ class TrajectoryError:
         else:
             rows = map_serial(evaluate_row, self, list(thetas), callback)
         return BatchResult.from_rows(rows, len(self.segments))
+
+    def with_effects(self, effects: Sequence[Effect]) -> "TrajectoryError":
+        """The same data and settings with the model's effects replaced by ``effects`` (θ then lives
+        in ``model_space(effects)``); shares this objective's worker pool."""
+        other = copy.copy(self)
+        other.effects = tuple(effects)
+        other.space = model_space(other.effects)
+        return other
 
     def close(self) -> None:
         """Shut down the local dask cluster, if one was started."""

@@ -9,31 +9,44 @@ The observed state at sample i is rebuilt in the simulator:
   its error, O(Δ² d³x/dt³), sets a floor under E(θ_true) (docs/physics.md gives the figure);
 - actuator state (rest lengths L0 and spool speeds ω): from the data's ``rest_length`` readings
   (L0 = reading + encoder offset(θ), ω from the backward difference of L0 over r), or, when the
-  data has none, reconstructed by running the motor model of θ along the observed cable lengths
-  (:func:`reconstruct_actuators`).
+  data has none, reconstructed by running the model's actuator along the observed cable lengths
+  (:func:`reconstruct_actuators`);
+- commands: the data's attribute ``length_reference`` says whether ``controls`` and
+  ``rest_length`` are encoder readings zeroed at the nominal design (``"encoder"``, the default)
+  or true rest lengths (``"true"``); with a command delay τ (physics.effects.ActuatorDelay) the
+  commands of the last τ seconds are still on their way and are loaded into the model's delay line.
 
 Then the controls u_i are held for one observation interval Δ (``Δ / dt`` physics steps) and the
-node positions are read: f(x_i, u_i, θ) = x̂_{i+1}.
+node positions are read: f(x_i, u_i, θ) = x̂_{i+1}. Observations pass through the model's
+observation transform (physics.effects.SensorBias): the state is rebuilt from unobserve(x_i) and
+the prediction is observe(x̂).
 """
 from __future__ import annotations
 
 import numpy as np
 import xarray as xr
-from numba import njit
 
-from physics.actuators import motor_step
-from physics.geometry import CABLE_NODES, N_CABLES
+from physics.cables import cable_tensions
+from physics.errors import TrajectoryFormatError
+from physics.geometry import CABLE_NODES
 from physics.tensegrity import T6Model
 
-__all__ = ["ObservedStates", "reconstruct_actuators", "actuator_states", "predict"]
+__all__ = ["ObservedStates", "LENGTH_REFERENCES", "reconstruct_actuators", "actuator_states", "predict"]
+
+#: What ``controls`` and ``rest_length`` mean: encoder readings zeroed at the nominal design, or true rest lengths.
+LENGTH_REFERENCES = ("encoder", "true")
 
 
 class ObservedStates:
     """Arrays derived from one trajectory: times (T,), nodes (T x 12 x 3), node velocities
     (T x 12 x 3, NaN where not estimable), controls (T x 24), readings (T x 24 or None), Δ [s],
-    and ``valid`` (T,) = the state at i can be rebuilt."""
+    ``reference`` (one of LENGTH_REFERENCES) and ``valid`` (T,) = the state at i can be rebuilt."""
 
     def __init__(self, ds: xr.Dataset) -> None:
+        self.reference = str(ds.attrs.get("length_reference", "encoder"))
+        if self.reference not in LENGTH_REFERENCES:
+            raise TrajectoryFormatError(f"attribute length_reference must be one of {LENGTH_REFERENCES}, got "
+                                        f"{self.reference!r} (docs/data-format.md).")
         self.times = np.asarray(ds["time"].values, float)
         self.interval = float(self.times[1] - self.times[0])
         self.nodes = np.asarray(ds["nodes"].transpose("time", "node", "axis").values, float)
@@ -58,47 +71,26 @@ class ObservedStates:
         self.finite = finite_x
 
 
-@njit(cache=True)
-def _reconstruct(lengths, rates, controls, offset, rest0, substeps, stiffness, damping,
-                 max_tension, max_velocity, radius, friction, inertia, kp, kv, min_rest, dt):
-    n = lengths.shape[0]
-    m = lengths.shape[1]
-    rest_out = np.empty((n, m))
-    speed_out = np.empty((n, m))
-    rest = rest0.copy()
-    speed = np.zeros(m)
-    target = np.empty(m)
-    tension = np.empty(m)
-    for i in range(n):
-        rest_out[i] = rest
-        speed_out[i] = speed
-        if i == n - 1:
-            break
-        for j in range(m):
-            target[j] = controls[i, j] + offset[j]
-        for s in range(substeps):
-            w = (s + 0.5) / substeps
-            for j in range(m):
-                length = (1 - w) * lengths[i, j] + w * lengths[i + 1, j]
-                stretch = length - rest[j]
-                if stretch <= 0:
-                    tension[j] = 0.0
-                else:
-                    f_k = stiffness * stretch
-                    f_d = damping * rates[i, j]
-                    f_d = min(max(f_d, -f_k), f_k)
-                    tension[j] = f_k + f_d
-            motor_step(rest, speed, target, tension, max_tension, max_velocity, radius, friction,
-                       inertia, kp, kv, min_rest, dt)
-    return rest_out, speed_out
+def _offset(obs: ObservedStates, model: T6Model) -> np.ndarray:
+    """Offset from the data's lengths to true rest lengths (24,) [m]: θ's encoder offset, or 0."""
+    return model.encoder_offset if obs.reference == "encoder" else np.zeros_like(model.encoder_offset)
+
+
+def _delayed_targets(obs: ObservedStates, model: T6Model, controls: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """True targets (len(times) x 24) the actuators see at ``times``: the latest command sent at or
+    before t - τ (zero-order hold), or the build rest lengths before the first one."""
+    index = np.searchsorted(obs.times, times - model.setup.command_delay + 1e-9, side="right") - 1
+    out = np.where(index[:, None] >= 0, controls[np.maximum(index, 0)] + _offset(obs, model), model.build_rest_length)
+    return out
 
 
 def reconstruct_actuators(obs: ObservedStates, model: T6Model) -> tuple[np.ndarray, np.ndarray]:
-    """Rest lengths and spool speeds (T x 24 each) of θ's motors driven along the observed motion.
+    """Rest lengths and actuator speeds (T x 24 each) of θ's actuator driven along the observed motion.
 
-    Starts from the build rest lengths of θ (the robot held them while settling), tension from the
-    observed cable lengths (linear between samples) and the model's cable law. Samples with
-    missing nodes are filled by linear interpolation in time.
+    Starts from the build rest lengths of θ (the robot held them while settling); per physics step
+    the tension comes from the observed cable lengths (linear between samples, rates constant per
+    interval) through physics.cables.cable_tension, and the targets from the (delayed) controls.
+    Samples with missing nodes are filled by linear interpolation in time.
     """
     nodes = obs.nodes
     if not obs.finite.all():
@@ -113,13 +105,25 @@ def reconstruct_actuators(obs: ObservedStates, model: T6Model) -> tuple[np.ndarr
     bad = ~np.isfinite(controls)
     if bad.any():  # hold the last finite command; before the first one, the build rest length
         for i in range(len(controls)):
-            previous = controls[i - 1] if i else model.encoder_zero
+            previous = controls[i - 1] if i else model.build_rest_length - _offset(obs, model)
             controls[i, bad[i]] = previous[bad[i]]
-    p, g = model.params, model.options.motor
-    substeps = int(round(obs.interval / model.options.dt))
-    return _reconstruct(lengths, rates, controls, model.encoder_offset, model.build_rest_length, substeps,
-                        p["stiffnessActive"], p["damping"], p["maxTens"], p["targetVelocity"], p["motor_radius"],
-                        p["motor_friction"], p["motor_inertia"], g.kp, g.kv, g.min_rest_length, model.options.dt)
+    dt = model.options.dt
+    substeps = int(round(obs.interval / dt))
+    n, m = lengths.shape
+    step_times = obs.times[0] + dt * np.arange(substeps * (n - 1))
+    targets = _delayed_targets(obs, model, controls, step_times)
+    rest, speed, tension = model.build_rest_length.copy(), np.zeros(m), np.empty(m)
+    rest_out, speed_out = np.empty((n, m)), np.empty((n, m))
+    law, actuator = model.setup.cable.args(), model.setup.actuator
+    for i in range(n):
+        rest_out[i], speed_out[i] = rest, speed
+        if i == n - 1:
+            break
+        for s in range(substeps):
+            w = (s + 0.5) / substeps
+            cable_tensions((1 - w) * lengths[i] + w * lengths[i + 1], rates[i], rest, *law, tension)
+            actuator.step(rest, speed, targets[i * substeps + s], tension)
+    return rest_out, speed_out
 
 
 def actuator_states(obs: ObservedStates, model: T6Model, source: str = "auto") -> tuple[np.ndarray, np.ndarray]:
@@ -129,12 +133,11 @@ def actuator_states(obs: ObservedStates, model: T6Model, source: str = "auto") -
         raise ParameterError(f"actuators must be 'auto', 'measured' or 'reconstructed', got {source!r}.")
     if source == "measured" or (source == "auto" and obs.readings is not None):
         if obs.readings is None:
-            from physics.errors import TrajectoryFormatError
             raise TrajectoryFormatError("actuators='measured' needs a 'rest_length' variable in the data; "
                                         "use actuators='reconstructed' or 'auto'.")
-        rest = obs.readings + model.encoder_offset
+        rest = obs.readings + _offset(obs, model)
         speed = np.zeros_like(rest)
-        speed[1:] = np.diff(rest, axis=0) / (obs.interval * model.params["motor_radius"])
+        speed[1:] = model.setup.actuator.speed_from_rest(np.diff(rest, axis=0) / obs.interval)
         speed[~np.isfinite(speed)] = 0.0
         return rest, speed
     return reconstruct_actuators(obs, model)
@@ -144,15 +147,22 @@ def predict(model: T6Model, obs: ObservedStates, start: int, steps: int,
             rest: np.ndarray, speed: np.ndarray) -> np.ndarray:
     """Predicted node positions (steps x 12 x 3) at samples start+1 .. start+steps.
 
-    The simulator is set to the observed state at ``start`` and the recorded controls are
-    replayed (held per interval). Raises PhysicsError if the simulation diverges.
+    The simulator is set to the observed state at ``start`` (through the model's inverse
+    observation transform), commands still in the delay line are loaded, and the recorded controls
+    are replayed (held per interval). Raises PhysicsError if the simulation diverges.
     """
     substeps = int(round(obs.interval / model.options.dt))
-    model.set_nodes(obs.nodes[start], obs.velocities[start])
+    model.set_nodes(model.unobserve(obs.nodes[start]), obs.velocities[start])
     model.rest_length = rest[start].copy()
     model.motor_speed = speed[start].copy()
+    model.world.setTime(float(obs.times[start]))
+    if model.setup.command_delay > 0:
+        first = max(0, int(np.searchsorted(obs.times, obs.times[start] - model.setup.command_delay - 1e-9)) - 1)
+        past = slice(first, start)
+        ok = np.isfinite(obs.controls[past]).all(axis=1)
+        model.prime_commands(obs.times[past][ok], obs.controls[past][ok], obs.reference)
     out = np.empty((steps, 12, 3))
     for k in range(steps):
-        model.step(obs.controls[start + k], n=substeps)
+        model.step(obs.controls[start + k], n=substeps, reference=obs.reference)
         out[k] = model.node_positions()
-    return out
+    return model.observe(out)

@@ -14,6 +14,7 @@ import numpy as np
 import xarray as xr
 
 from physics.controllers import Controller, HoldController
+from physics.effects.base import Effect, model_space
 from physics.errors import ParameterError
 from physics.parameters import ParameterSpace
 from physics.tensegrity import ModelOptions, RobotState, T6Model
@@ -26,12 +27,13 @@ _CACHE_SIZE = 64
 
 
 def settled_model(theta: "np.ndarray | Mapping[str, float] | None" = None, *, space: ParameterSpace | None = None,
-                  options: ModelOptions | None = None, settle: float = 2.0) -> T6Model:
-    """A :class:`T6Model` at θ after ``settle`` seconds of resting (cached per process)."""
-    model = T6Model(theta, space=space, options=options)
+                  options: ModelOptions | None = None, settle: float = 2.0,
+                  effects: "tuple[Effect, ...]" = ()) -> T6Model:
+    """A :class:`T6Model` at θ (with ``effects``) after ``settle`` seconds of resting (cached per process)."""
+    model = T6Model(theta, space=space, options=options, effects=effects)
     if settle < 0 or not np.isfinite(settle):
         raise ParameterError(f"settle must be a duration >= 0 s, got {settle!r}.")
-    key = (model.theta.tobytes(), model.options, float(settle))
+    key = (model.theta.tobytes(), model.options, float(settle), tuple(e.config().__repr__() for e in model.effects))
     state = _SETTLED.get(key)
     if state is None:
         model.settle(settle)
@@ -48,16 +50,23 @@ def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, control
              duration: float = 3.0, sample_rate: float = 100.0, settle: float = 2.0,
              options: ModelOptions | None = None, space: ParameterSpace | None = None,
              noise: float = 0.0, seed: "int | np.random.Generator | None" = None,
-             record_velocities: bool = True, check_bounds: bool = False) -> xr.Dataset:
+             record_velocities: bool = True, check_bounds: bool = False,
+             effects: "tuple[Effect, ...] | list[Effect]" = (), length_reference: str = "encoder") -> xr.Dataset:
     """Simulate and return a trajectory Dataset with ``nodes``, ``controls``, ``rest_length``, ``tension``.
 
     duration [s] after settling; sample_rate [Hz] of the recording and the controls; noise: standard
     deviation [m] of Gaussian noise added to the recorded node positions (needs ``seed``; a noisy
     recording has no ``velocities``, like motion capture); record_velocities: store the exact node
-    velocities (``velocities`` variable) so the one-step error need not estimate them.
-    Raises :class:`PhysicsError` if the simulation diverges.
+    velocities (``velocities`` variable) so the one-step error need not estimate them;
+    effects: physics.effects parts the simulated robot has (θ then lives in ``model_space(effects)``;
+    the recording does not name them, so data with an undeclared effect are made this way);
+    length_reference: record controls and rest lengths as encoder readings (``"encoder"``) or
+    true rest lengths (``"true"``). Raises :class:`PhysicsError` if the simulation diverges.
     """
-    space = space or ParameterSpace.t6()
+    effects = tuple(effects)
+    space = space or model_space(effects)
+    if length_reference not in ("encoder", "true"):
+        raise ParameterError(f"length_reference must be 'encoder' or 'true', got {length_reference!r}.")
     theta_arr = space.as_array(theta, check_bounds=check_bounds)
     if not (np.isfinite(duration) and duration > 0):
         raise ParameterError(f"duration must be > 0 s, got {duration!r}.")
@@ -67,7 +76,7 @@ def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, control
         raise ParameterError(f"noise must be a standard deviation >= 0 m, got {noise!r}.")
     if noise > 0 and seed is None:
         raise ParameterError("noise > 0 needs an explicit seed (an int or numpy Generator) so results repeat.")
-    model = settled_model(theta_arr, space=space, options=options, settle=settle)
+    model = settled_model(theta_arr, space=space, options=options, settle=settle, effects=effects)
     dt = model.options.dt
     substeps = int(round(1.0 / (sample_rate * dt)))
     if substeps < 1 or abs(substeps * dt * sample_rate - 1.0) > 1e-9:
@@ -85,13 +94,15 @@ def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, control
     tension = np.empty((n, 24))
     for i in range(n):
         t = i / sample_rate
-        nodes[i] = model.node_positions()
+        nodes[i] = model.observe(model.node_positions())
         velocities[i] = model.node_velocities()
         rest[i] = model.rest_length_readings()
         tension[i] = model.tensions()
         controls[i] = controller(t, model)
         if i < n - 1:
             model.step(controls[i], n=substeps)   # raises PhysicsError if it diverges
+    if length_reference == "true":
+        controls, rest = controls + model.encoder_offset, rest + model.encoder_offset
     if noise > 0:
         nodes = nodes + np.random.default_rng(seed).normal(0.0, noise, nodes.shape)
         velocities = None  # a noisy recording carries positions only (motion capture)
@@ -101,6 +112,7 @@ def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, control
         "settle_s": float(settle),
         "noise_m": float(noise),
         "controller": type(controller).__name__,
+        "length_reference": length_reference,
     }
     return make_trajectory(np.arange(n) / sample_rate, nodes, controls, velocities=velocities if record_velocities else None,
                            rest_length=rest, tension=tension,

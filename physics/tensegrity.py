@@ -285,6 +285,7 @@ class T6Model:
         """Load the commands sent at ``times`` (k,) [s] <= now, targets (k x 24), into the delay line:
         the latest one due before now becomes the current target, later ones stay pending."""
         self._pending.clear()
+        self.target = self.build_rest_length.copy()
         delay, now = self.setup.command_delay, self.time
         offset = self.encoder_offset if reference == "encoder" else 0.0
         for t, target in zip(times, targets):

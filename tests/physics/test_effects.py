@@ -1,0 +1,148 @@
+"""Effects (physics.effects) by their laws: off means absent, the energy they store or dissipate,
+the motion they cause, and the predictor seeing data made with them through the same model."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from physics import FlopController, ModelOptions, ParameterError, T6Model, TrajectoryError, simulate
+from physics.effects import (
+    EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, EndCapRadius, GroundSlope, NonlinearStiffness,
+    PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
+)
+
+FREE = ModelOptions(gravity=0.0, ground=False, spin_damping=0.0)
+
+
+def _theta(effects, **values):
+    space = model_space(effects)
+    return space.as_array({**space.as_dict(None), **values}, check_bounds=False)
+
+
+def _kicked(effects, options=FREE, **values):
+    theta = _theta(effects, damping=0.0, motor_friction=0.0, **values)
+    model = T6Model(theta, options=options, effects=effects)
+    model._set_velocities(np.random.default_rng(3).normal(0.0, 0.3, 36))
+    model.step(None, n=1)
+    return model
+
+
+def _energy_trace(model, chunks=20, steps=100):
+    return np.array([model.energy()["total"]] + [model.step(None, n=steps) or model.energy()["total"]
+                                                 for _ in range(chunks)])
+
+
+def test_model_space_appends_effect_parameters_and_refuses_clashes():
+    space = model_space([GroundSlope(), SensorBias()])
+    assert space.names[15:] == ("slope_x", "slope_y", "sensor_bias_z") and space.dim == 18
+    with pytest.raises(ParameterError, match="listed twice"):
+        model_space([AirDrag(), AirDrag()])
+    with pytest.raises(ParameterError, match="needs the T6 parameters"):
+        T6Model(None, space=model_space([AirDrag()]))
+    assert effect_from_config(PointMass(rod=3).config()) == PointMass(rod=3)
+    with pytest.raises(ParameterError, match="unknown effect"):
+        effect_from_config({"effect": "magic"})
+    assert [e.name for e in catalog()] == list(EFFECT_TYPES)
+
+
+@pytest.mark.parametrize("effect", [e for e in catalog() if e.switchable], ids=lambda e: e.name)
+def test_an_effect_at_its_off_value_is_the_model_without_it(effect):
+    plain = T6Model(options=ModelOptions(drop_height=0.05))
+    with_off = T6Model(_theta([effect]), effects=[effect], options=ModelOptions(drop_height=0.05))
+    plain.step(None, n=200)
+    with_off.step(None, n=200)
+    np.testing.assert_array_equal(with_off.node_positions(), plain.node_positions())
+    np.testing.assert_array_equal(with_off.observe(with_off.node_positions()), plain.node_positions())
+
+
+def test_nonlinear_cables_conserve_energy_with_their_cubic_potential():
+    effects = [NonlinearStiffness()]
+    totals = _energy_trace(_kicked(effects, stiffness_quadratic=4.0))
+    assert np.abs(totals - totals[0]).max() / totals[0] < 0.01
+
+
+@pytest.mark.parametrize("effect, values", [(CableHysteresis(), {"hysteresis": 0.5}), (AirDrag(), {"drag": 5.0})],
+                         ids=["hysteresis", "drag"])
+def test_hysteresis_and_drag_dissipate(effect, values):
+    """Hysteresis stores path-dependent energy (the ½ k s² of energy() is not its potential), so
+    only the net loss is asserted; drag loses energy at every step."""
+    model = _kicked([effect], **values)
+    kick = model.energy()["kinetic"]
+    totals = _energy_trace(model)
+    assert totals[0] - totals[-1] > 0.05 * kick               # loses a part of the kick
+    if effect.name == "air_drag":                             # drag, a force against the motion, never adds
+        assert np.all(np.diff(totals) < 1e-3 * kick)
+    free = _energy_trace(_kicked([effect]))                  # at the off value it conserves it
+    assert np.abs(free - free[0]).max() < 0.01 * free[0]
+
+
+def test_a_tilted_ground_is_gravity_along_the_slope():
+    effects = [GroundSlope()]
+    model = T6Model(_theta(effects, slope_x=0.1), effects=effects, options=ModelOptions(ground=False))
+    start = model.com()
+    model.step(None, n=200)                                   # 0.2 s of free fall
+    moved = model.com() - start
+    expected = 0.5 * 9.81 * 0.2**2 * np.array([np.sin(0.1), 0.0, -np.cos(0.1)])
+    np.testing.assert_allclose(moved, expected, atol=2e-3)
+
+
+def test_point_mass_adds_mass_and_moves_the_centre_of_mass_toward_it():
+    effects = [PointMass(rod=0, position=1.0)]
+    plain, heavy = T6Model(options=FREE), T6Model(_theta(effects, point_mass=2.0), effects=effects, options=FREE)
+    assert heavy.robot.getMass() == pytest.approx(plain.robot.getMass() + 2.0)
+    node = plain.node_positions()[1]
+    assert np.linalg.norm(heavy.com() - node) < np.linalg.norm(plain.com() - node)
+
+
+def test_caps_rest_on_their_contact_radius():
+    effects = [EndCapRadius()]
+    model = T6Model(_theta(effects, cap_radius_change=-0.03), effects=effects)
+    model.settle(1.5)
+    assert np.sort(model.node_positions()[:, 2])[:3] == pytest.approx(0.03, abs=3e-3)
+
+
+def test_delayed_commands_reach_the_actuators_after_the_delay():
+    effects = [ActuatorDelay()]
+    model = T6Model(_theta(effects, actuator_delay=0.05), effects=effects, options=FREE)
+    start = model.rest_length.copy()
+    model.step(model.rest_length_readings() * 0.8, n=49)
+    np.testing.assert_array_equal(model.rest_length, start)   # nothing yet after 49 ms
+    model.step(None, n=5)
+    assert np.all(model.rest_length < start)
+
+
+def test_rate_limited_actuator_moves_rest_lengths_at_its_rate():
+    effects = [RateLimitedActuation()]
+    model = T6Model(_theta(effects, actuator_rate=0.4), effects=effects, options=FREE)
+    start = model.rest_length.copy()
+    model.step(model.rest_length_readings() - 0.1, n=100)       # 0.1 s at 0.4 m/s: 0.04 m of 0.1 m
+    np.testing.assert_allclose(start - model.rest_length, 0.04, rtol=1e-9)
+
+
+@pytest.mark.parametrize("effect, values", [
+    (ActuatorDelay(), {"actuator_delay": 0.08}), (RateLimitedActuation(), {"actuator_rate": 0.4}),
+    (SensorBias(), {"sensor_bias_z": 0.02}), (CableHysteresis(), {"hysteresis": 0.5}),
+], ids=lambda x: getattr(x, "name", ""))
+def test_the_predictor_knows_an_effect_through_the_model(effect, values):
+    """Data made with an effect: the one-step error of the model with it at the true value is at
+    the floor of the model without effects on its own data (within 3×: the actuator state is
+    reconstructed along the observed motion), the model without it is far worse."""
+    theta = _theta([effect], **values)
+    data = simulate(theta, controller=FlopController(0.0), duration=1.2, effects=[effect])
+    plain_data = simulate(controller=FlopController(0.0), duration=1.2)
+    floor = TrajectoryError(plain_data, n_workers=0)(None)
+    wrong = TrajectoryError(data, n_workers=0)
+    right = wrong.with_effects([effect])(theta)
+    assert right < 3.0 * floor
+    assert wrong(None) > 5.0 * right
+
+
+def test_true_rest_lengths_in_the_data_give_the_same_error_as_encoder_readings():
+    theta = _theta([], rod_length=1.70)
+    kwargs = dict(controller=FlopController(0.0), duration=1.0)
+    encoder = simulate(theta, **kwargs)
+    true = simulate(theta, length_reference="true", **kwargs)
+    assert true.attrs["length_reference"] == "true"
+    assert not np.allclose(true.controls.values, encoder.controls.values)
+    e_encoder = TrajectoryError(encoder, n_workers=0)(theta)
+    assert TrajectoryError(true, n_workers=0)(theta) == pytest.approx(e_encoder, rel=1e-9)
