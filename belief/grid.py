@@ -162,9 +162,12 @@ class SobolCandidates(CandidateSet):
 
     For dimensions where a regular grid is impossible (e.g. BO in the full 15-D space). Each point
     is a "cell" of equal prior mass; the DataArray dimension is ``cell`` with coordinates z0..z{d-1}.
+    ``include`` (k x d) latent points become cells 0..k-1, before the n Sobol points (a warm start,
+    e.g. the previous estimate when a model is extended).
     """
 
-    def __init__(self, bounds: "np.ndarray | Sequence[Sequence[float]]", *, n: int, seed: int) -> None:
+    def __init__(self, bounds: "np.ndarray | Sequence[Sequence[float]]", *, n: int, seed: int,
+                 include: "np.ndarray | Sequence[Sequence[float]] | None" = None) -> None:
         self.bounds = _check_bounds(bounds)
         if not isinstance(n, (int, np.integer)) or n < 1:
             raise GridError(f"SobolCandidates needs n >= 1 points, got {n!r} (an empty candidate set).")
@@ -177,7 +180,14 @@ class SobolCandidates(CandidateSet):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # balance warning when n is not a power of two
             u = sampler.random(self.n)
-        self._points = qmc.scale(u, self.bounds[:, 0], self.bounds[:, 1])
+        points = qmc.scale(u, self.bounds[:, 0], self.bounds[:, 1])
+        extra = np.empty((0, self.dim)) if include is None else np.atleast_2d(np.asarray(include, dtype=float))
+        if extra.size and (extra.shape[1] != self.dim or np.any(extra < self.bounds[:, 0] - 1e-12)
+                           or np.any(extra > self.bounds[:, 1] + 1e-12) or not np.all(np.isfinite(extra))):
+            raise GridError(f"include must be finite points (k x {self.dim}) inside the latent box, got shape "
+                            f"{extra.shape}.")
+        self.include = np.clip(extra, self.bounds[:, 0], self.bounds[:, 1]).reshape(-1, self.dim)
+        self._points = np.vstack([self.include, points])
         self._points.setflags(write=False)
 
     @classmethod
@@ -196,13 +206,17 @@ class SobolCandidates(CandidateSet):
         return xr.DataArray(v, dims=("cell",), coords=coords, name=name)
 
     def config(self) -> dict[str, Any]:
-        return {"kind": "sobol", "bounds": self.bounds.tolist(), "n": self.n, "seed": self.seed}
+        out = {"kind": "sobol", "bounds": self.bounds.tolist(), "n": self.n, "seed": self.seed}
+        if len(self.include):
+            out["include"] = self.include.tolist()
+        return out
 
     @classmethod
     def from_config(cls, config: dict[str, Any]) -> "SobolCandidates":
         """The SobolCandidates whose ``config()`` equals ``config`` (kind "sobol", ``bounds``, ``n``, ``seed``)."""
         _require(config, "sobol", ("bounds", "n", "seed"))
-        return _same_config(cls(config["bounds"], n=config["n"], seed=config["seed"]), config)
+        return _same_config(cls(config["bounds"], n=config["n"], seed=config["seed"],
+                                include=config.get("include")), config)
 
 
 _KINDS: dict[str, type] = {"grid": Grid, "sobol": SobolCandidates}

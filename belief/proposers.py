@@ -13,6 +13,7 @@ The identification driver (belief.driver) owns budgets, journal and evaluation; 
 - :class:`RandomProposer`: a seeded permutation of the cells (random search);
 - :class:`SobolDesign`: scrambled Sobol points of the latent box snapped to their nearest cells
   (the initial design of BO; alone, quasi-random search);
+- :class:`WarmStart`: given cells first (e.g. the previous estimate), then another proposer;
 - :class:`BOProposer`: an initial design (``SobolDesign`` by default) at batch 0, then the GP
   surrogate (belief.surrogate) and an acquisition over the unevaluated cells (log expected
   improvement with a kriging-believer batch, belief.acquisition.select_cells).
@@ -33,7 +34,7 @@ from belief.acquisition import select_cells
 from belief.journal import Record
 from belief.surrogate import GPSurrogate, SurrogateConfig
 
-__all__ = ["Proposal", "Proposer", "RandomProposer", "SobolDesign", "BOProposer", "Acquisition", "sobol_design",
+__all__ = ["Proposal", "Proposer", "RandomProposer", "SobolDesign", "WarmStart", "BOProposer", "Acquisition", "sobol_design",
            "fit_surrogate"]
 
 #: select_cells(model, points (n x d), available (n,) bool, *, q, prediction=(mean, var) (n,)) -> q cell indices
@@ -120,6 +121,28 @@ class SobolDesign:
 
     def config(self) -> dict[str, Any]:
         return {"kind": "sobol", "seed": self.seed}
+
+
+class WarmStart:
+    """The cells ``cells`` first (those not yet evaluated), then ``then``'s proposals: an initial
+    design that starts from known good points, e.g. ``BOProposer(seed, initial=WarmStart([0], SobolDesign(seed)))``."""
+
+    def __init__(self, cells: Sequence[int], then: Proposer) -> None:
+        self.cells, self.then = [int(c) for c in cells], then
+
+    def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal:
+        first = _unevaluated(np.asarray(self.cells), history, size)
+        if len(first) == size:
+            return Proposal(first)
+        rest = self.then.propose(batch, history, size, grid).cells
+        rest = [c for c in rest if c not in first]
+        if len(first) + len(rest) < size:   # ``then`` proposed some of the warm cells: ask for a few more
+            extra = self.then.propose(batch, history, size + len(first), grid).cells
+            rest += [c for c in extra if c not in first and c not in rest]
+        return Proposal((first + rest)[:size])
+
+    def config(self) -> dict[str, Any]:
+        return {"kind": "warm", "cells": self.cells, "then": self.then.config()}
 
 
 def _callable_name(fn: Callable[..., Any]) -> str:

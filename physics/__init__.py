@@ -32,7 +32,9 @@ if TYPE_CHECKING:
     from physics.push import PushError, generate_push_data, push_space, simulate_push
     from physics.simulate import settled_model, simulate
     from physics.tensegrity import ModelOptions, RobotState, T6Model, rod_poses_from_nodes
-    from physics.trajectory import load_trajectory, make_trajectory, save_trajectory, validate_trajectory
+    from physics.trajectory import (
+        describe_trajectory, load_trajectory, make_trajectory, save_trajectory, validate_trajectory,
+    )
 
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "physics.errors": ("TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError",
@@ -43,7 +45,8 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "physics.actuators": ("MotorGains",),
     "physics.tensegrity": ("ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes"),
     "physics.controllers": ("Controller", "FlopController", "FlopPlan", "HoldController", "ReplayController"),
-    "physics.trajectory": ("make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory"),
+    "physics.trajectory": ("make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory",
+                           "describe_trajectory"),
     "physics.simulate": ("simulate", "settled_model"),
     "physics.predictor": ("ObservedStates", "predict", "reconstruct_actuators"),
     "physics.objective": ("STATUSES", "BatchResult", "Objective"),

@@ -29,20 +29,34 @@ def _parse_assignments(items: Sequence[str]) -> dict[str, float]:
     return out
 
 
+def _effects(values: dict[str, float]) -> list:
+    """The effects whose parameters ``values`` names (physics.effects.EFFECT_TYPES), in catalog order."""
+    from physics.effects import EFFECT_TYPES
+    from physics.errors import ParameterError
+
+    owners = {p.name: cls for cls in EFFECT_TYPES.values() for p in cls().parameters()}
+    unknown = sorted(set(values) - set(owners))
+    if unknown:
+        raise ParameterError(f"--effect: unknown effect parameter(s) {unknown}; known: {sorted(owners)}.")
+    wanted = {owners[name] for name in values}
+    return [cls() for cls in EFFECT_TYPES.values() if cls in wanted]
+
+
 def _run_simulate(args: argparse.Namespace) -> int:
     from physics.controllers import FlopController, HoldController
-    from physics.parameters import ParameterSpace
+    from physics.effects import model_space
     from physics.plotting import plot_trajectory
     from physics.simulate import simulate
     from physics.trajectory import save_trajectory
 
-    space = ParameterSpace.t6()
-    theta = space.as_array(_parse_assignments(args.theta), check_bounds=False)
+    effects = _effects(_parse_assignments(args.effect))
+    space = model_space(effects)
+    theta = space.as_array({**_parse_assignments(args.theta), **_parse_assignments(args.effect)}, check_bounds=False)
     controller = (HoldController() if args.flops == 0 else
                   FlopController(args.heading, flops=args.flops, period=args.period))
     duration = args.duration if args.duration is not None else max(1.0, args.flops * args.period)
     ds = simulate(theta, controller=controller, duration=duration, sample_rate=args.rate,
-                  noise=args.noise, seed=args.seed)
+                  noise=args.noise, seed=args.seed, effects=effects)
     out = Path(args.out)
     nc = save_trajectory(ds, out / "trajectory.nc")
     png = plot_trajectory(ds, out / "trajectory.png")
@@ -61,6 +75,9 @@ def register_simulate(subparsers) -> None:
     p.add_argument("--out", default="out/simulate", help="output folder (default: out/simulate)")
     p.add_argument("--theta", nargs="*", default=[], metavar="NAME=VALUE",
                    help="parameter values in SI, e.g. damping=180 pretension=140")
+    p.add_argument("--effect", nargs="*", default=[], metavar="NAME=VALUE",
+                   help="switch on effects by their parameters, e.g. actuator_delay=0.08 (physics.effects; "
+                        "the recording does not name them)")
     p.add_argument("--heading", type=float, default=0.0, help="goal direction in radians from +x (default 0)")
     p.add_argument("--flops", type=int, default=1, help="number of flops (0 = just rest; default 1)")
     p.add_argument("--period", type=float, default=3.0, help="seconds per flop (default 3)")

@@ -274,6 +274,18 @@ class TrajectoryError:
         other.space = model_space(other.effects)
         return other
 
+    def select(self, trajectories: Sequence[int]) -> "TrajectoryError":
+        """The same settings on a subset of the trajectories (indices, in the given order); shares
+        this objective's worker pool. Segments are renumbered t0.. in the new order."""
+        index = [int(k) for k in trajectories]
+        if not index or any(k not in range(len(self.trajectories)) for k in index):
+            raise ParameterError(f"select needs trajectory indices in 0..{len(self.trajectories) - 1}, got {index}.")
+        other = copy.copy(self)
+        other.trajectories = [self.trajectories[k] for k in index]
+        other._observed = [self._observed[k] for k in index]
+        other._groups = [self._groups[k] for k in index]
+        return other
+
     def close(self) -> None:
         """Shut down the local dask cluster, if one was started."""
         self._pool.close()

@@ -72,8 +72,10 @@ class ObservedStates:
 
 
 def _offset(obs: ObservedStates, model: T6Model) -> np.ndarray:
-    """Offset from the data's lengths to true rest lengths (24,) [m]: θ's encoder offset, or 0."""
-    return model.encoder_offset if obs.reference == "encoder" else np.zeros_like(model.encoder_offset)
+    """Offset from the data's lengths to true rest lengths (24,) [m]: θ's encoder offset (or 0 for
+    true lengths) plus the model's command offset."""
+    base = model.encoder_offset if obs.reference == "encoder" else np.zeros_like(model.encoder_offset)
+    return base + model.setup.command_offset
 
 
 def _delayed_targets(obs: ObservedStates, model: T6Model, controls: np.ndarray, times: np.ndarray) -> np.ndarray:

@@ -275,7 +275,7 @@ class T6Model:
         target = np.asarray(target_readings, dtype=float)
         if target.shape != (N_CABLES,) or not np.all(np.isfinite(target)):
             raise PhysicsError(f"command must be 24 finite target rest lengths [m], got shape {target.shape}.")
-        target = target + self.encoder_offset if reference == "encoder" else target.copy()
+        target = (target + self.encoder_offset if reference == "encoder" else target) + self.setup.command_offset
         if self.setup.command_delay > 0:
             self._pending.append((self.time + self.setup.command_delay, target))
         else:
@@ -287,7 +287,7 @@ class T6Model:
         self._pending.clear()
         self.target = self.build_rest_length.copy()
         delay, now = self.setup.command_delay, self.time
-        offset = self.encoder_offset if reference == "encoder" else 0.0
+        offset = (self.encoder_offset if reference == "encoder" else 0.0) + self.setup.command_offset
         for t, target in zip(times, targets):
             if t + delay <= now + 1e-9:
                 self.target = np.asarray(target, float) + offset

@@ -23,7 +23,8 @@ import xarray as xr
 from physics.errors import TrajectoryFormatError
 from physics.geometry import CABLE_NAMES, CABLE_NODES, N_CABLES, N_NODES
 
-__all__ = ["make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory", "FORMAT_VERSION"]
+__all__ = ["make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory", "describe_trajectory",
+           "FORMAT_VERSION"]
 
 FORMAT_VERSION = "tensegrid-trajectory-1"
 _AXES = ("x", "y", "z")
@@ -145,3 +146,26 @@ def load_trajectory(path: "str | os.PathLike[str]") -> xr.Dataset:
             "Write trajectories with physics.save_trajectory or xarray.Dataset.to_netcdf."
         ) from exc
     return validate_trajectory(ds, source=str(path))
+
+
+def describe_trajectory(ds: xr.Dataset) -> list[str]:
+    """What a trajectory holds and lacks, and what the model does about it, one sentence each."""
+    t = np.asarray(ds["time"].values, float)
+    nodes = np.asarray(ds["nodes"].values, float)
+    lines = [f"{len(t)} samples at {1.0 / (t[1] - t[0]):.4g} Hz over {t[-1] - t[0]:.3g} s"]
+    missing = int((~np.isfinite(nodes).all(axis=(1, 2))).sum())
+    if missing:
+        lines.append(f"{missing} samples with missing (NaN) node positions: skipped, never imputed")
+    bad_controls = int((~np.isfinite(ds["controls"].values).all(axis=1)).sum())
+    if bad_controls:
+        lines.append(f"{bad_controls} samples with missing controls: the last command is held")
+    if "velocities" not in ds:
+        lines.append("no node velocities: estimated from past positions (backward differences)")
+    if "rest_length" not in ds:
+        lines.append("no rest-length readings: the actuator state is reconstructed with the model's actuator")
+    reference = ds.attrs.get("length_reference")
+    if reference is None:
+        lines.append("attribute length_reference absent: controls taken as encoder readings zeroed at the nominal design")
+    else:
+        lines.append(f"controls and rest lengths are {'true rest lengths' if reference == 'true' else 'encoder readings'}")
+    return lines

@@ -10,7 +10,8 @@ model before its world is built. Through the setup an effect may
 - add forces each physics step: ``force_terms``, kernels ``f(nodes, velocities, out)`` that add
   node forces (12 x 3) [N];
 - replace a component: the cable law's coefficients (``cable``), the actuator (``actuator``),
-  the delay between a command and the actuator seeing it (``command_delay``);
+  the delay between a command and the actuator seeing it (``command_delay``), an offset (24,)
+  [m] added to every command (``command_offset``);
 - transform observations: ``observation_offset`` (3,) [m], added to every observed node.
 
 A model built from the T6 and effects e_1..e_m has the parameter space
@@ -47,6 +48,7 @@ class ModelSetup:
     gains: MotorGains
     dt: float
     command_delay: float = 0.0
+    command_offset: np.ndarray = field(default_factory=lambda: np.zeros(24))
     point_masses: list[tuple[int, float, float]] = field(default_factory=list)
     force_terms: list[ForceTerm] = field(default_factory=list)
     observation_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))

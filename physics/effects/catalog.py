@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 from physics.effects.base import Effect
-from physics.effects.components import ActuatorDelay, CableHysteresis, NonlinearStiffness, RateLimitedActuation
+from physics.effects.components import (
+    ActuatorDelay, CableHysteresis, EncoderOffset, NonlinearStiffness, RateLimitedActuation,
+)
 from physics.effects.forces import AirDrag, GroundViscosity
 from physics.effects.sensing import SensorBias
 from physics.effects.world import EndCapRadius, GroundSlope, PointMass
@@ -10,15 +12,16 @@ from physics.errors import ParameterError
 
 __all__ = ["EFFECT_TYPES", "catalog", "effect_from_config"]
 
-#: Every effect class, by name.
-EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in (
-    GroundSlope, AirDrag, GroundViscosity, CableHysteresis, NonlinearStiffness, ActuatorDelay,
-    RateLimitedActuation, SensorBias, EndCapRadius, PointMass)}
+_CATALOG = (GroundSlope, AirDrag, GroundViscosity, CableHysteresis, NonlinearStiffness, ActuatorDelay,
+            RateLimitedActuation, SensorBias, EndCapRadius, PointMass)
+
+#: Every effect class, by name (the catalog's, then EncoderOffset, which criticism does not try by default).
+EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in _CATALOG + (EncoderOffset,)}
 
 
 def catalog() -> tuple[Effect, ...]:
-    """One instance of every effect with its default options, in a fixed order."""
-    return tuple(cls() for cls in EFFECT_TYPES.values())
+    """One instance of every effect criticism tries by default, with default options, in a fixed order."""
+    return tuple(cls() for cls in _CATALOG)
 
 
 def effect_from_config(config: dict) -> Effect:

@@ -42,10 +42,10 @@ def test_model_space_appends_effect_parameters_and_refuses_clashes():
     assert effect_from_config(PointMass(rod=3).config()) == PointMass(rod=3)
     with pytest.raises(ParameterError, match="unknown effect"):
         effect_from_config({"effect": "magic"})
-    assert [e.name for e in catalog()] == list(EFFECT_TYPES)
+    assert [e.name for e in catalog()] == list(EFFECT_TYPES)[:10] and "encoder_offset" not in [e.name for e in catalog()]
 
 
-@pytest.mark.parametrize("effect", [e for e in catalog() if e.switchable], ids=lambda e: e.name)
+@pytest.mark.parametrize("effect", [t() for t in EFFECT_TYPES.values() if t.switchable], ids=lambda e: e.name)
 def test_an_effect_at_its_off_value_is_the_model_without_it(effect):
     plain = T6Model(options=ModelOptions(drop_height=0.05))
     with_off = T6Model(_theta([effect]), effects=[effect], options=ModelOptions(drop_height=0.05))

@@ -1,0 +1,275 @@
+"""Criticism: which physical effect the identified model lacks, judged on held-out data against a floor.
+
+Given an objective with segments and effects (physics.TrajectoryError, ``loss="squared"``), the
+identified θ̂, and a split of its segments into *fit* segments F and *held-out* segments H:
+
+1. the base errors E_F(θ̃), E_H(θ̃) of the current model at the re-tuned θ̃ (below);
+2. for each catalog effect e not yet in the model: its parameters η_e are fitted on F with θ̂
+   held (a grid of ``grid`` values over each parameter's box, then ``refine`` values around the
+   best, one parameter at a time), and scored on H:
+
+       explained_e = 1 - E_H(θ̃, η̂_e) / E_H(θ̃)                          (held-out fraction)
+       evidence_e  = K_F ln(E_F(θ̃) / E_F(θ̃, η̂_e)) + K_H ln(E_H(θ̃) / E_H(θ̃, η̂_e)) - k_e ln(K_F + K_H)
+
+   the second a BIC difference over all the data (in-sample on F, out-of-sample on H), with
+   K_F, K_H the effective residual counts of F and H of the model with the effect
+   (belief.noise.effective_size of its residuals: time correlation and cross-coordinate
+   redundancy make the raw count overstate the evidence; a model that explains the structure
+   leaves whiter residuals and so earns a larger K) and k_e the effect's parameter count.
+   ``K ln(E_0/E_1)`` is twice the log-likelihood ratio of two Gaussian models with the residual
+   variance profiled out;
+   Before step 2 the model's own parameters are *re-tuned* (:func:`polish`: one coordinate sweep
+   over every parameter, on F): an imperfect θ̂ leaves residual that any extra freedom absorbs,
+   so effects are fitted and scored against the re-tuned θ̃ — the floor — not against θ̂. The
+   table's floor row says how much of the held-out residual re-tuning alone removed;
+3. verdict: the effect with the largest evidence is **found** if evidence_e >= ``min_evidence``
+   and explained_e >= ``min_fraction``; otherwise **unexplained**, with where the residual
+   concentrates (belief.residuals).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any, Sequence
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from belief.errors import BeliefError
+from belief.noise import effective_size
+
+__all__ = ["CriticismConfig", "Candidate", "Criticism", "VERDICTS", "criticize", "fit_effect", "polish"]
+
+VERDICTS = ("found", "unexplained")
+
+
+@dataclass(frozen=True)
+class CriticismConfig:
+    """grid, refine: values per parameter in the first and second pass of a fit; min_evidence
+    (ΔBIC, natural-log units ×2) and min_fraction (held-out explained fraction) an effect must
+    reach to be found; joint: how many of the best screened effects are re-tuned jointly with
+    the model's parameters (0: none)."""
+
+    grid: int = 7
+    refine: int = 5
+    min_evidence: float = 10.0
+    min_fraction: float = 0.3
+    joint: int = 3
+
+    def __post_init__(self) -> None:
+        if self.grid < 3 or self.refine < 3:
+            raise BeliefError(f"CriticismConfig needs grid >= 3 and refine >= 3 values, got {self.grid}, {self.refine}.")
+        if not (self.min_evidence >= 0 and 0 <= self.min_fraction < 1):
+            raise BeliefError("CriticismConfig needs min_evidence >= 0 and min_fraction in [0, 1).")
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One row of the ranking: an effect (kind "effect") or a re-fit parameter of the model (kind
+    "floor"), its fitted values, fit and held-out errors, explained fraction and evidence."""
+
+    name: str
+    kind: str
+    values: dict[str, float]
+    fit_error: float
+    held_error: float
+    explained: float
+    evidence: float
+    config: dict = field(default_factory=dict)
+    n_fit: float = math.nan       # K_F of its residuals
+    n_held: float = math.nan      # K_H of its residuals
+    stage: str = "screened"       # "screened": η fitted with θ̃ held; "joint": θ and η re-tuned together
+    theta: tuple = ()             # the full parameter vector of the model with the effect
+
+
+@dataclass
+class Criticism:
+    """The outcome of :func:`criticize` (module docstring): θ̃ the re-tuned parameters (the floor),
+    ranking (effects, best evidence first), floor (what re-tuning removed of the held-out error of
+    θ̂), verdict, found (the winning Candidate or None), base errors at θ̃ and effective sizes, and
+    the residual structure."""
+
+    theta: np.ndarray
+    base_fit: float
+    base_held: float
+    n_eff_fit: float          # of the base model's residuals
+    n_eff_held: float
+    ranking: list[Candidate]
+    floor: Candidate          # θ̂ -> θ̃: explained = 1 - E_H(θ̃)/E_H(θ̂)
+    verdict: str
+    found: Candidate | None
+    structure: dict[str, Any] = field(default_factory=dict)
+
+    def table(self) -> str:
+        """The ranking as text: effect, evidence above the floor, explained fraction, fitted size."""
+        lines = [f"{'rank':>4}  {'effect':24s} {'evidence':>10} {'explained':>10}  estimate",
+                 f"{'':>4}  {'floor: ' + self.floor.name:24s} {self.floor.evidence:10.1f} "
+                 f"{self.floor.explained:10.1%}  {len(self.floor.values)} parameters moved"]
+        for k, c in enumerate(self.ranking, 1):
+            mark = " <- found" if self.found is not None and c.name == self.found.name else ""
+            lines.append(f"{k:>4}  {c.name:24s} {c.evidence:10.1f} {c.explained:10.1%}  {_values(c.values)}{mark}")
+        return "\n".join(lines)
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-able record of the criticism."""
+        return {"verdict": self.verdict, "found": None if self.found is None else asdict(self.found),
+                "floor": asdict(self.floor), "ranking": [asdict(c) for c in self.ranking],
+                "base_fit": self.base_fit, "base_held": self.base_held, "n_eff_fit": self.n_eff_fit,
+                "n_eff_held": self.n_eff_held, "structure": self.structure}
+
+
+def _values(values: dict[str, float]) -> str:
+    return ", ".join(f"{k}={v:.4g}" for k, v in values.items())
+
+
+def _scores(result: Any, mask: np.ndarray) -> np.ndarray:
+    """Σ parts over ``mask`` per row, inf where the evaluation failed."""
+    ok = np.array([s == "ok" for s in result.status])
+    return np.where(ok, np.nan_to_num(result.parts[:, mask], nan=0.0).sum(axis=1), np.inf)
+
+
+def fit_effect(objective: Any, theta: np.ndarray, indices: Sequence[int], fit: np.ndarray,
+               config: CriticismConfig = CriticismConfig(), *, refine: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Fit the parameters ``indices`` of θ (D,) on the segments ``fit`` (S,) bool, the others held:
+    per parameter a grid over its box (plus its current value), then (``refine``) a finer grid
+    around the best. Returns (θ̂ (D,), parts (S,) at θ̂); parts are inf when every value failed."""
+    theta = np.array(theta, dtype=float)
+    lower, upper = objective.space.lower, objective.space.upper
+    parts = np.full(len(objective.segments), np.inf)
+    for rnd in (("grid", "refine") if refine else ("grid",)):
+        for j in indices:
+            step = (upper[j] - lower[j]) / (config.grid - 1)
+            if rnd == "grid":
+                values = np.unique(np.r_[np.linspace(lower[j], upper[j], config.grid), theta[j]])
+            else:
+                values = np.linspace(max(lower[j], theta[j] - step), min(upper[j], theta[j] + step), config.refine)
+            rows = np.repeat(theta[None], len(values), axis=0)
+            rows[:, j] = values
+            result = objective.evaluate_batch(rows)
+            score = _scores(result, fit)
+            if np.isfinite(score).any():
+                k = int(np.argmin(score))
+                theta[j], parts = values[k], np.asarray(result.parts[k], float)
+    return theta, parts
+
+
+def _effect_theta(objective: Any, theta: np.ndarray, effect: Any) -> tuple[Any, np.ndarray, list[int]]:
+    """The objective with ``effect`` added, θ extended by the effect's starting values, and their indices."""
+    extended = objective.with_effects(tuple(objective.effects) + (effect,))
+    start = [p.nominal for p in effect.parameters()]
+    return extended, np.r_[theta, start], list(range(len(theta), len(theta) + len(start)))
+
+
+def _candidate(name: str, kind: str, values: dict, parts: np.ndarray, fit: np.ndarray, held: np.ndarray,
+               base: tuple[float, float], n_fit: float, n_held: float, k: int, config: dict) -> Candidate:
+    """A ranked row: explained fraction on H and evidence on F and H against ``base`` = (E_F, E_H)."""
+    row = Candidate(name, kind, values, float(parts[fit].sum()), float(parts[held].sum()), -math.inf, -math.inf,
+                    config, n_fit, n_held)
+    return _rescore(row, base, k)
+
+
+def _rescore(c: Candidate, base: tuple[float, float], k: int | None = None) -> Candidate:
+    """``c`` with explained fraction and evidence (module docstring) against ``base`` = (E_F, E_H)."""
+    k = len(c.values) if k is None else k
+    if not (np.isfinite(c.held_error) and c.held_error > 0 and np.isfinite(c.fit_error) and c.fit_error > 0
+            and np.isfinite(c.n_fit) and np.isfinite(c.n_held)):
+        return replace(c, explained=-math.inf, evidence=-math.inf)
+    explained = 1.0 - c.held_error / base[1]
+    evidence = (c.n_fit * math.log(base[0] / c.fit_error) + c.n_held * math.log(base[1] / c.held_error)
+                - k * math.log(max(c.n_fit + c.n_held, 2.0)))
+    return replace(c, explained=explained, evidence=evidence)
+
+
+def _sizes(objective: Any, theta: np.ndarray, fit: np.ndarray, held: np.ndarray) -> tuple[float, float]:
+    """Effective residual counts (K_F, K_H) of ``objective`` at θ on the fit and held-out segments."""
+    residuals = objective.residuals(theta)
+    return (effective_size([r for r, f in zip(residuals, fit) if f]).n_eff,
+            effective_size([r for r, h in zip(residuals, held) if h]).n_eff)
+
+
+def polish(objective: Any, theta: np.ndarray, fit: np.ndarray, config: CriticismConfig = CriticismConfig(),
+           progress: bool = False, order: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """One coordinate sweep over the parameters ``order`` (default all, in order) on the fit
+    segments (a grid pass per parameter, the current value included, so the fit error never
+    rises): θ̃ (D,) and its parts (S,)."""
+    theta = np.asarray(theta, float).copy()
+    parts = np.asarray(objective.evaluate_parts(theta), float)
+    order = range(objective.space.dim) if order is None else order
+    for j in tqdm(order, desc="re-tune", leave=False, disable=not progress):
+        refit, refit_parts = fit_effect(objective, theta, [j], fit, config, refine=False)
+        if np.isfinite(refit_parts).all() and refit_parts[fit].sum() < parts[fit].sum():
+            theta, parts = refit, refit_parts
+    return theta, parts
+
+
+def _screen(objective: Any, theta: np.ndarray, parts: np.ndarray, effect: Any, fit: np.ndarray, held: np.ndarray,
+            config: CriticismConfig) -> Candidate:
+    """The effect's parameters fitted on F with θ̃ held, scored against θ̃."""
+    extended, start, indices = _effect_theta(objective, theta, effect)
+    fitted, eparts = fit_effect(extended, start, indices, fit, config)
+    values = {extended.space.names[j]: float(fitted[j]) for j in indices}
+    k_fit, k_held = _sizes(extended, fitted, fit, held) if np.isfinite(eparts).all() else (math.nan, math.nan)
+    c = _candidate(effect.name, "effect", values, eparts, fit, held, (float(parts[fit].sum()), float(parts[held].sum())),
+                   k_fit, k_held, len(indices), effect.config())
+    return replace(c, theta=tuple(float(v) for v in fitted))
+
+
+def _with(objective: Any, c: Candidate) -> Any:
+    from physics.effects import effect_from_config
+
+    return objective.with_effects(tuple(objective.effects) + (effect_from_config(c.config),))
+
+
+def _joint(objective: Any, c: Candidate, fit: np.ndarray, held: np.ndarray, base: tuple[float, float],
+           config: CriticismConfig, progress: bool) -> Candidate:
+    """A screened effect re-tuned jointly: one sweep over its parameters, then the model's, from
+    (θ̃, η̂); scored against the base after its own second sweep."""
+    extended = _with(objective, c)
+    D = objective.space.dim
+    order = list(range(D, extended.space.dim)) + list(range(D))
+    theta, parts = polish(extended, np.asarray(c.theta), fit, config, progress, order=order)
+    if not np.isfinite(parts).all():
+        return _rescore(c, base)
+    k_fit, k_held = _sizes(extended, theta, fit, held)
+    values = {extended.space.names[j]: float(theta[j]) for j in range(D, extended.space.dim)}
+    out = _candidate(c.name, "effect", values, parts, fit, held, base, k_fit, k_held, len(values), c.config)
+    return replace(out, stage="joint", theta=tuple(float(v) for v in theta))
+
+
+def criticize(objective: Any, theta: np.ndarray, *, fit: Sequence[bool], held: Sequence[bool],
+              effects: Sequence[Any], config: CriticismConfig = CriticismConfig(), structure: dict | None = None,
+              progress: bool = True) -> Criticism:
+    """Rank ``effects`` (physics.effects instances not in ``objective.effects``) as explanations of
+    the residual of ``objective`` at θ̂ (D,) (module docstring). ``fit``, ``held``: masks (S,)
+    over ``objective.segments``, disjoint and non-empty; the objective's loss must be "squared"."""
+    fit, held = np.asarray(fit, bool), np.asarray(held, bool)
+    S = len(objective.segments)
+    if fit.shape != (S,) or held.shape != (S,) or not fit.any() or not held.any() or (fit & held).any():
+        raise BeliefError(f"fit and held must be disjoint, non-empty boolean masks over the {S} segments "
+                          f"{list(objective.segments)}.")
+    if getattr(objective, "loss", "squared") != "squared":
+        raise BeliefError("criticism needs a sum-of-squares objective (TrajectoryError(..., loss='squared')): "
+                          "its evidence is a Gaussian likelihood ratio.")
+    present = {e.name for e in getattr(objective, "effects", ())}
+    effects = [e for e in effects if e.name not in present]
+    start = np.asarray(theta, float)
+    start_parts = np.asarray(objective.evaluate_parts(start), float)
+    theta, parts = polish(objective, start, fit, config, progress)
+    screened = [_screen(objective, theta, parts, e, fit, held, config)
+                for e in tqdm(effects, desc="effects", leave=False, disable=not progress)]
+    if config.joint > 0 and screened:   # a second sweep for the base too, so both get the same search
+        theta, parts = polish(objective, theta, fit, config, progress)
+    n_fit, n_held = _sizes(objective, theta, fit, held)
+    base = (float(parts[fit].sum()), float(parts[held].sum()))
+    moved = {n: float(v) for n, v, v0 in zip(objective.space.names, theta, start) if v != v0}
+    floor = _candidate("re-tuned model", "floor", moved, parts, fit, held,
+                       (float(start_parts[fit].sum()), float(start_parts[held].sum())), n_fit, n_held, len(moved), {})
+    screened.sort(key=lambda c: -c.evidence)
+    ranking = [_joint(objective, c, fit, held, base, config, progress) for c in screened[:config.joint]]
+    ranking += [_rescore(c, base) for c in screened[config.joint:]]
+    ranking.sort(key=lambda c: -c.evidence)
+    crit = Criticism(theta, base[0], base[1], n_fit, n_held, ranking, floor, "unexplained", None,
+                     dict(structure or {}))
+    if ranking and ranking[0].evidence >= config.min_evidence and ranking[0].explained >= config.min_fraction:
+        crit.verdict, crit.found = "found", ranking[0]
+    return crit

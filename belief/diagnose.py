@@ -1,0 +1,204 @@
+"""Close the loop: identify, criticize the residual, add the effect it points to, re-identify, repeat.
+
+One pass on trajectories split into *fit* and *held-out* ones:
+
+1. identify θ̂ of the current model (T6 + effects added so far) on the fit trajectories
+   (belief.identify, full-space BO with the honest posterior);
+2. criticize: rank the catalog effects by what they explain of the held-out residual beyond the
+   floor (belief.criticism);
+3. if an effect is found: add it, identify again in the extended space (warm-started at θ̃ and the
+   effect's fitted size), and measure the held-out error before (at θ̃, the model re-tuned by
+   criticism, so the extra search of the second identification is not credited to the effect)
+   and after, per trajectory.
+
+Passes repeat (``passes``) until criticism finds nothing. Held-out trajectories never enter an
+identification; the effect fit of criticism uses only the fit trajectories. With one trajectory
+there is nothing to hold out: criticism alternates its time windows between fit and held-out,
+and the before/after error is in-sample (the report says so).
+
+The error is E = Σ ||x_i - x̂_i||² over ``horizon``-sample open-loop windows (physics.TrajectoryError,
+``loss="squared"``; default 25 samples, 0.25 s at 100 Hz): over a window an effect's deviation
+builds up, while over one sample sensor noise dominates.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from belief.belief import Belief
+from belief.criticism import Criticism, CriticismConfig, criticize
+from belief.errors import BeliefError
+from belief.grid import SobolCandidates
+from belief.identify import identify
+from belief.proposers import BOProposer, SobolDesign, WarmStart
+from belief.residuals import residual_dataset, residual_summary
+
+__all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "split_masks"]
+
+
+@dataclass(frozen=True)
+class DiagnoseConfig:
+    """passes: most effects added; budget: evaluations per identification; candidates: Sobol cells
+    of each identification; horizon, windows: of the error (module docstring); seed: all randomness."""
+
+    passes: int = 2
+    budget: int = 40
+    candidates: int = 2048
+    horizon: int = 25
+    windows: int = 3
+    seed: int = 0
+    criticism: CriticismConfig = field(default_factory=CriticismConfig)
+
+    def __post_init__(self) -> None:
+        if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
+            raise BeliefError("DiagnoseConfig needs passes >= 1, budget >= 2, candidates >= budget and horizon >= 1.")
+
+
+@dataclass
+class Pass:
+    """One pass: the model's effects, θ̂ and its parameter names, the criticism, the held-out error
+    per trajectory before, and (when an effect was added) θ̂ and the error after, and the Belief."""
+
+    effects: tuple[str, ...]
+    names: tuple[str, ...]
+    theta: np.ndarray
+    criticism: Criticism
+    held_before: dict[str, float]
+    added: str | None = None
+    names_after: tuple[str, ...] = ()
+    theta_after: np.ndarray | None = None
+    held_after: dict[str, float] | None = None
+    belief_after: Belief | None = None
+
+    @property
+    def reduction(self) -> float | None:
+        """1 - E_after / E_before on all held-out data, or None when nothing was added."""
+        if self.held_after is None:
+            return None
+        return 1.0 - sum(self.held_after.values()) / sum(self.held_before.values())
+
+
+@dataclass
+class Diagnosis:
+    """Result of :func:`diagnose`: the passes, the final effects, the held-out trajectories
+    (indices; empty with one trajectory: then errors are in-sample), the first Belief and the objective's settings."""
+
+    passes: list[Pass]
+    effects: tuple[str, ...]
+    held_out: list[int]
+    belief: Belief
+    settings: dict[str, Any]
+
+    @property
+    def found(self) -> list[str]:
+        """The effects added, in order."""
+        return [p.added for p in self.passes if p.added is not None]
+
+
+def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(fit, held) masks over segments "t{k}/w{j}": held = trajectories in ``held_out``; with none,
+    odd windows are held out and even ones fit."""
+    traj = np.array([int(s.split("/")[0][1:]) for s in segments])
+    window = np.array([int(s.split("/")[1][1:]) for s in segments])
+    held = np.isin(traj, list(held_out)) if len(held_out) else window % 2 == 1
+    return ~held, held
+
+
+def _held_errors(objective: Any, theta: np.ndarray, held: np.ndarray) -> dict[str, float]:
+    """Held-out E per trajectory (name "t{k}") at θ."""
+    parts = np.asarray(objective.evaluate_parts(theta), float)
+    out: dict[str, float] = {}
+    for name, value, h in zip(objective.segments, parts, held):
+        if h:
+            key = name.split("/")[0]
+            out[key] = out.get(key, 0.0) + float(value)
+    return out
+
+
+def _identify(objective: Any, config: DiagnoseConfig, seed: int, warm: np.ndarray | None, journal: Path | None,
+              progress: bool) -> Any:
+    """Full-space BO on ``objective``; ``warm`` (D,) becomes cell 0 and is evaluated first."""
+    from embeddings import Identity
+
+    space = objective.space
+    decoder = Identity(space)
+    include = None if warm is None else decoder.encode(np.clip(warm, space.lower, space.upper))[None]
+    grid = SobolCandidates(decoder.bounds, n=config.candidates, seed=seed, include=include)
+    proposer = None if warm is None else BOProposer(seed, initial=WarmStart([0], SobolDesign(seed)))
+    return identify(objective, decoder, grid, budget=config.budget, seed=seed, method="bo", proposer=proposer,
+                    journal=journal, progress=progress)
+
+
+def _check_held_out(n: int, held_out: Sequence[int] | None) -> list[int]:
+    if held_out is None:
+        return list(range(n - max(1, n // 3), n)) if n >= 2 else []
+    held = sorted({int(k) for k in held_out})
+    if any(k not in range(n) for k in held) or (held and len(held) == n):
+        raise BeliefError(f"held_out must name some (not all) of the {n} trajectories by index 0..{n - 1}, got "
+                          f"{list(held_out)}.")
+    return held
+
+
+def diagnose(trajectories: Sequence[Any], *, held_out: Sequence[int] | None = None, effects: Sequence[Any] | None = None,
+             config: DiagnoseConfig = DiagnoseConfig(), journal_dir: "str | os.PathLike[str] | None" = None,
+             options: Any = None, n_workers: int = 2, progress: bool = True) -> Diagnosis:
+    """Run the loop of the module docstring on ``trajectories`` (xarray Datasets, docs/data-format.md).
+
+    held_out: indices of the trajectories kept for scoring (default: the last third, at least one,
+    when there are two or more); effects: the catalog to try (default physics.effects.catalog());
+    journal_dir: identifications are journalled there and resume after an interruption; options:
+    physics.ModelOptions of the model."""
+    from physics.effects import catalog, effect_from_config
+    from physics.error import TrajectoryError
+
+    data = list(trajectories)
+    if not data:
+        raise BeliefError("diagnose needs at least one trajectory.")
+    held_idx = _check_held_out(len(data), held_out)
+    fit_idx = [k for k in range(len(data)) if k not in held_idx]
+    tries = list(effects) if effects is not None else list(catalog())
+    journals = Path(journal_dir) if journal_dir is not None else None
+    if journals is not None:
+        journals.mkdir(parents=True, exist_ok=True)
+    full = TrajectoryError(data, horizon=config.horizon, loss="squared", windows=config.windows, options=options,
+                           n_workers=n_workers)
+    try:
+        fit, held = split_masks(full.segments, held_idx)
+        fit_objective = full.select(fit_idx)
+        added: tuple = ()
+        ident = _identify(fit_objective, config, config.seed, None, _journal(journals, 0), progress)
+        first_belief, passes = ident.belief, []
+        for k in range(config.passes):
+            model = full.with_effects(added)
+            theta = np.asarray(ident.best_theta, float)
+            structure = residual_summary(residual_dataset(model, theta))
+            crit = criticize(model, theta, fit=fit, held=held, effects=tries, config=config.criticism,
+                             structure=structure, progress=progress)
+            theta = crit.theta          # re-tuned on the fit trajectories: the fair "before"
+            step = Pass(tuple(e.name for e in added), model.space.names, theta, crit, _held_errors(model, theta, held))
+            passes.append(step)
+            if crit.found is None:
+                break
+            added = added + (effect_from_config(crit.found.config),)
+            warm = np.asarray(crit.found.theta, float)
+            ident = _identify(fit_objective.with_effects(added), config, config.seed + k + 1, warm,
+                              _journal(journals, k + 1), progress)
+            extended = full.with_effects(added)
+            step.added, step.names_after = crit.found.name, extended.space.names
+            step.theta_after = np.asarray(ident.best_theta, float)
+            step.held_after = _held_errors(extended, step.theta_after, held)
+            step.belief_after = ident.belief
+        settings = {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
+                    "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
+                    "fit_trajectories": fit_idx, "segments": list(full.segments)}
+        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings)
+    finally:
+        full.close()
+
+
+def _journal(directory: Path | None, k: int) -> Path | None:
+    return None if directory is None else directory / f"identify_pass{k}.sqlite"

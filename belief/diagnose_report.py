@@ -1,0 +1,197 @@
+"""The report of a diagnosis: text tables, a JSON record and figures (matplotlib, Agg).
+
+Figures (written to the output directory):
+
+- ``residual_time.png``: ||r_i|| [mm] over time on each held-out trajectory, before (the first
+  model) and after (the final model), phases shaded (belief.residuals);
+- ``residual_nodes.png``: RMS residual per node and axis before and after;
+- ``ranking.png``: held-out explained fraction of each effect on the first pass, the floor dashed;
+- ``signature.png``: the first found effect's signature s_i = x̂_i(with it) - x̂_i(without), its
+  norm against the residual's component along it, (r_i · s_i)/||s_i||: where the effect explains
+  the residual the two curves coincide.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from belief.diagnose import Diagnosis
+from belief.residuals import residual_dataset
+
+__all__ = ["diagnosis_text", "write_report"]
+
+
+def diagnosis_text(d: Diagnosis) -> str:
+    """Ranking per pass and the held-out error before and after, as plain text."""
+    out = []
+    scope = (f"held-out trajectories {d.held_out}" if d.held_out
+             else "one trajectory: odd windows held out from the effect fit, errors in-sample")
+    for k, p in enumerate(d.passes, 1):
+        model = "T6" + "".join(f" + {e}" for e in p.effects)
+        out.append(f"pass {k}: model {model}; {scope}")
+        out.append(p.criticism.table())
+        s = p.criticism.structure
+        if s:
+            ph = ", ".join(f"{n} {v['share']:.0%}" for n, v in s["phases"].items())
+            out.append(f"residual share by phase: {ph}; largest on nodes {s['top_nodes']}; "
+                       f"by axis " + ", ".join(f"{a} {v:.0%}" for a, v in s["axis_share"].items())
+                       + (f"; NaN samples skipped per trajectory {s['skipped']}" if any(s["skipped"]) else ""))
+        if p.added is None:
+            out.append(f"verdict: {p.criticism.verdict} (no effect explains enough of the held-out residual "
+                       "left by the re-tuned model)")
+            continue
+        out.append(f"verdict: found {p.added} ({', '.join(f'{k}={v:.4g}' for k, v in p.criticism.found.values.items())})")
+        out.append(f"{'held-out':10s} {'E before':>12} {'E after':>12} {'change':>8}")
+        for key in p.held_before:
+            b, a = p.held_before[key], p.held_after[key]
+            out.append(f"{key:10s} {b:12.5g} {a:12.5g} {a / b - 1:+8.1%}")
+        tb, ta = sum(p.held_before.values()), sum(p.held_after.values())
+        out.append(f"{'total':10s} {tb:12.5g} {ta:12.5g} {ta / tb - 1:+8.1%}")
+        after = dict(zip(p.names_after, p.theta_after))
+        out.append("re-identified: " + ", ".join(f"{n}={after[n]:.4g}" for n in p.names_after[len(p.names):]))
+    return "\n".join(out)
+
+
+def _objective(d: Diagnosis, trajectories: Sequence[Any], effects: Sequence[Any]) -> Any:
+    from physics.error import TrajectoryError
+
+    return TrajectoryError(list(trajectories), horizon=d.settings["horizon"], loss="squared",
+                           windows=d.settings["windows"], effects=effects, n_workers=0)
+
+
+def _final(d: Diagnosis) -> tuple[list[Any], np.ndarray]:
+    """The final model's effects and θ̂."""
+    from physics.effects import effect_from_config
+
+    added = [p for p in d.passes if p.added is not None]
+    if not added:
+        return [], d.passes[0].theta
+    return [effect_from_config(p.criticism.found.config) for p in added], added[-1].theta_after
+
+
+def _shade(ax: Any, res: Any) -> None:
+    colours = {"actuating": "tab:orange", "contact": "tab:red"}
+    t, ph = np.asarray(res["time"].values), np.asarray(res["phase"].values)
+    for name, colour in colours.items():
+        for i in np.flatnonzero(ph == name):
+            ax.axvspan(t[i] - 0.005, t[i] + 0.005, color=colour, alpha=0.08, lw=0)
+
+
+def _plot_time(before: Any, after: Any, keys: list[int], path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(keys), 1, figsize=(8, 2.6 * len(keys)), squeeze=False, sharex=True)
+    for ax, k in zip(axes[:, 0], keys):
+        b, a = before.where(before.trajectory == k, drop=True), after.where(after.trajectory == k, drop=True)
+        _shade(ax, b)
+        ax.plot(b["time"], 1e3 * b["norm"], label="before", color="tab:gray")
+        ax.plot(a["time"], 1e3 * a["norm"], label="after", color="tab:blue")
+        ax.set_ylabel("||r|| [mm]")
+        ax.set_title(f"trajectory {k} (shaded: orange actuating, red contact)", fontsize=9)
+    axes[0, 0].legend(fontsize=8)
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_nodes(before: Any, after: Any, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 3))
+    x = np.arange(12)
+    for offset, res, label, colour in ((-0.2, before, "before", "tab:gray"), (0.2, after, "after", "tab:blue")):
+        rms = 1e3 * np.sqrt((res["residual"] ** 2).sum("axis").mean("sample").values)
+        ax.bar(x + offset, rms, width=0.4, label=label, color=colour)
+    ax.set_xticks(x)
+    ax.set_xlabel("node")
+    ax.set_ylabel("RMS ||r|| [mm]")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_ranking(d: Diagnosis, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    crit = d.passes[0].criticism
+    names = [c.name for c in crit.ranking]
+    values = [max(c.explained, -0.5) for c in crit.ranking]
+    colours = ["tab:green" if crit.found is not None and n == crit.found.name else "tab:gray" for n in names]
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    ax.barh(names[::-1], values[::-1], color=colours[::-1])
+    ax.axvline(max(crit.floor.explained, 0.0), color="k", ls="--", lw=1, label=f"floor ({crit.floor.name})")
+    ax.set_xlabel("held-out explained fraction (pass 1)")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_signature(d: Diagnosis, trajectories: Sequence[Any], path: Path) -> bool:
+    """The first found effect's signature against the residual of pass 1 (module docstring)."""
+    import matplotlib.pyplot as plt
+    from physics.effects import effect_from_config
+
+    p = d.passes[0]
+    if p.criticism.found is None:
+        return False
+    effect = effect_from_config(p.criticism.found.config)
+    base = _objective(d, trajectories, [])
+    with_it = base.with_effects([effect])
+    k = d.held_out[0] if d.held_out else 0
+    theta_e = np.asarray(p.criticism.found.theta, float)
+    x_b = base.predictions(theta_e[:base.space.dim])[k].values
+    x_e = with_it.predictions(theta_e)[k].values
+    obs = np.asarray(base.trajectories[k]["nodes"].transpose("time", "node", "axis").values, float)
+    s, r = (x_e - x_b).reshape(len(obs), 36), (obs - x_b).reshape(len(obs), 36)
+    t = np.asarray(base.trajectories[k]["time"].values)
+    norm = np.linalg.norm(s, axis=1)
+    along = np.einsum("ij,ij->i", r, s) / np.where(norm > 0, norm, np.nan)
+    fig, ax = plt.subplots(figsize=(8, 3))
+    ax.plot(t, 1e3 * np.linalg.norm(r, axis=1), color="tab:gray", lw=0.8, label="||r|| (without the effect)")
+    ax.plot(t, 1e3 * along, color="tab:blue", label="r along the signature")
+    ax.plot(t, 1e3 * norm, color="tab:green", ls="--", label=f"||signature|| of {effect.name}")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("[mm]")
+    ax.set_title(f"trajectory {k}: {effect.name} at " + ", ".join(f"{n}={v:.3g}" for n, v in p.criticism.found.values.items()),
+                 fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def write_report(d: Diagnosis, trajectories: Sequence[Any], out: "str | Path") -> list[Path]:
+    """Write report.txt, diagnosis.json and the figures of the module docstring to ``out``; returns the paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "report.txt", out / "diagnosis.json"]
+    paths[0].write_text(diagnosis_text(d) + "\n")
+    record = {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
+              "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
+                          "added": p.added, "held_after": p.held_after,
+                          "theta_after": None if p.theta_after is None else dict(zip(p.names_after, p.theta_after.tolist())),
+                          "theta": dict(zip(p.names, p.theta.tolist()))} for p in d.passes]}
+    paths[1].write_text(json.dumps(record, indent=1, default=float))
+    effects, theta = _final(d)
+    before = residual_dataset(_objective(d, trajectories, []), d.passes[0].theta)
+    after = residual_dataset(_objective(d, trajectories, effects), theta)
+    keys = d.held_out or [0]
+    _plot_time(before, after, keys, out / "residual_time.png")
+    held_b = before.where(before.trajectory.isin(keys), drop=True)
+    held_a = after.where(after.trajectory.isin(keys), drop=True)
+    _plot_nodes(held_b, held_a, out / "residual_nodes.png")
+    _plot_ranking(d, out / "ranking.png")
+    paths += [out / "residual_time.png", out / "residual_nodes.png", out / "ranking.png"]
+    if _plot_signature(d, trajectories, out / "signature.png"):
+        paths.append(out / "signature.png")
+    return paths

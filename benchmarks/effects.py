@@ -1,0 +1,140 @@
+"""Closing the loop on data with an undeclared effect: is it found, and does adding it help held-out data?
+
+Per scenario and seed: θ* is drawn uniformly from the inner half of the ±10 % box (±5 % of
+nominal); three flops (1.5 s, 100 Hz, 0.2 mm sensor noise, headings h0, h0 + 120°, h0 + 240°
+with h0 drawn per seed) are simulated with the scenario's effects switched on and not declared;
+``belief.diagnose`` identifies on the first two flops (BO, ``--budget`` evaluations), criticizes
+and, when it finds an effect, adds it and re-identifies; the third flop is held out.
+
+Scenarios: one per catalog effect at the size in SIZES; ``none`` (no extra effect);
+``outside`` (a mis-zeroed encoder on one cable, physics.effects.EncoderOffset, not in the
+catalog); ``mix`` (ground slope and actuator delay); ``actuator+contact`` (rate-limited actuator
+and end-cap radius, as another engine's SUPERball differs from this one).
+
+Printed per scenario: seeds; how often the true effect (the larger one of a mix) is ranked first
+and found; how often any effect is claimed; the median held-out explained fraction of the top
+effect; the median held-out error after / before adding the found effect(s); the median
+estimated size against the true one; for mixes how often the second effect is found on pass 2.
+
+    .venv/bin/python benchmarks/effects.py                          # every scenario, 10 seeds
+    .venv/bin/python benchmarks/effects.py --seeds 2 --scenarios actuator_delay none
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from belief.diagnose import DiagnoseConfig, diagnose
+from physics import FlopController, ParameterSpace, simulate
+from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, model_space
+
+#: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
+#: differences between two engines' SUPERballs are (an actuator reaching its target in 0.11 s,
+#: caps touching the ground at 31 mm instead of 60 mm).
+SIZES = {"ground_slope": {"slope_x": 0.08}, "air_drag": {"drag": 8.0}, "ground_viscosity": {"ground_viscosity": 150.0},
+         "cable_hysteresis": {"hysteresis": 0.5}, "nonlinear_stiffness": {"stiffness_quadratic": 3.0},
+         "actuator_delay": {"actuator_delay": 0.08}, "rate_limited_actuator": {"actuator_rate": 1.6},
+         "sensor_bias": {"sensor_bias_z": 0.02}, "end_cap_radius": {"cap_radius_change": -0.029},
+         "point_mass": {"point_mass": 1.5}, "encoder_offset": {"encoder_offset": 0.05}}
+MIXES = {"mix": ("ground_slope", "actuator_delay"), "actuator+contact": ("rate_limited_actuator", "end_cap_radius")}
+
+
+def scenario_effects(name: str) -> list:
+    """The effect instances a scenario's data carry (the first is the larger one of a mix)."""
+    if name == "none":
+        return []
+    if name == "outside":
+        return [EncoderOffset()]
+    names = MIXES.get(name, (name,))
+    return [EFFECT_TYPES[n]() for n in names]
+
+
+def make_data(name: str, seed: int, *, duration: float = 1.5, noise: float = 0.0002) -> tuple[list, dict]:
+    """Three flops with the scenario's effects; returns them and the true values of all parameters."""
+    effects = scenario_effects(name)
+    rng = np.random.default_rng([seed, 8])
+    base = ParameterSpace.t6()
+    truth = dict(zip(base.names, base.nominal * (1 + rng.uniform(-0.05, 0.05, base.dim))))
+    for e in effects:
+        truth.update(SIZES[e.name])
+    theta = model_space(effects).as_array(truth, check_bounds=False)
+    h0 = float(rng.uniform(0, 2 * np.pi))
+    data = [simulate(theta, controller=FlopController(h0 + k * 2 * np.pi / 3), duration=duration, effects=effects,
+                     noise=noise, seed=[seed, k]) for k in range(3)]
+    return data, truth
+
+
+def run_one(name: str, seed: int, budget: int) -> dict:
+    effects = scenario_effects(name)
+    data, truth = make_data(name, seed)
+    passes = 2 if name in MIXES else 1
+    start = time.perf_counter()
+    d = diagnose(data, held_out=[2], config=DiagnoseConfig(budget=budget, passes=passes, seed=seed), progress=False)
+    first = d.passes[0].criticism
+    top = first.ranking[0] if first.ranking else None
+    row = {"scenario": name, "seed": seed, "truth": [e.name for e in effects], "top": top.name if top else None,
+           "top_explained": top.explained if top else None, "top_values": top.values if top else None,
+           "top_evidence": top.evidence if top else None, "floor": first.floor.name,
+           "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
+           "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None, "n_eff_fit": first.n_eff_fit,
+           "found": d.found, "reductions": [p.reduction for p in d.passes if p.reduction is not None],
+           "held_before": sum(d.passes[0].held_before.values()), "seconds": time.perf_counter() - start,
+           "true_values": {k: v for e in effects for k, v in SIZES[e.name].items()}}
+    last = [p for p in d.passes if p.held_after is not None]
+    row["held_after"] = sum(last[-1].held_after.values()) if last else None
+    row["criticism"] = [p.criticism.as_dict() for p in d.passes]
+    return row
+
+
+def summarize(rows: list[dict]) -> None:
+    print(f"{'scenario':22s} {'seeds':>5} {'top=true':>8} {'found':>6} {'claimed':>7} {'explained':>9} "
+          f"{'after/before':>12} {'estimate (true)':>24} {'2nd found':>9}")
+    for name in dict.fromkeys(r["scenario"] for r in rows):
+        rs = [r for r in rows if r["scenario"] == name]
+        truth = rs[0]["truth"]
+        first = truth[0] if truth and name != "outside" else None
+        top_ok = sum(r["top"] == first for r in rs) if first else "-"
+        found_ok = sum(bool(r["found"]) and r["found"][0] == first for r in rs) if first else "-"
+        claimed = sum(bool(r["found"]) for r in rs)
+        explained = np.median([r["top_explained"] for r in rs if r["top_explained"] is not None])
+        ratios = [r["held_after"] / r["held_before"] for r in rs if r["held_after"] is not None]
+        ratio = f"{np.median(ratios):.2f}" if ratios else "-"
+        est = "-"
+        if first:
+            key = next(iter(SIZES[first]))
+            vals = [r["top_values"].get(key) for r in rs if r["top"] == first]
+            est = f"{np.median(vals):.4g} ({SIZES[first][key]:.4g})" if vals else "-"
+        second = sum(len(r["found"]) > 1 and r["found"][1] == truth[1] for r in rs) if name in MIXES else "-"
+        print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
+              f"{ratio:>12} {est:>24} {str(second):>9}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--budget", type=int, default=40)
+    ap.add_argument("--scenarios", nargs="*",
+                    default=[e.name for e in catalog()] + ["none", "outside", "mix", "actuator+contact"])
+    ap.add_argument("--out", default="benchmarks/results/effects.jsonl", help="rows are appended here (JSON lines)")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for name in args.scenarios:
+        for seed in range(args.seeds):
+            row = run_one(name, seed, args.budget)
+            rows.append(row)
+            with out.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+            print(f"{name} seed {seed}: top {row['top']}, found {row['found']}, {row['seconds']:.0f} s", flush=True)
+    summarize(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
