@@ -18,6 +18,7 @@ estimated size against the true one; for mixes how often the second effect is fo
 
     .venv/bin/python benchmarks/effects.py                          # every scenario, 10 seeds
     .venv/bin/python benchmarks/effects.py --seeds 2 --scenarios actuator_delay none
+    .venv/bin/python benchmarks/effects.py --summarize benchmarks/results/effects.jsonl   # the table again
 """
 from __future__ import annotations
 
@@ -117,16 +118,21 @@ def summarize(rows: list[dict]) -> None:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. first-seed + seeds - 1")
+    ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--scenarios", nargs="*",
                     default=[e.name for e in catalog()] + ["none", "outside", "mix", "actuator+contact"])
     ap.add_argument("--out", default="benchmarks/results/effects.jsonl", help="rows are appended here (JSON lines)")
     args = ap.parse_args(argv)
+    if args.summarize:
+        summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
+        return 0
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     rows = []
     for name in args.scenarios:
-        for seed in range(args.seeds):
+        for seed in range(args.first_seed, args.first_seed + args.seeds):
             row = run_one(name, seed, args.budget)
             rows.append(row)
             with out.open("a") as fh:

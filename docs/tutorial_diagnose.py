@@ -26,17 +26,18 @@ from __future__ import annotations
 import argparse
 import os
 
+from belief.criticism import CriticismConfig
 from belief.diagnose import DiagnoseConfig, diagnose
 from belief.diagnose_report import diagnosis_text, write_report
 from physics import FlopController, describe_trajectory, simulate
-from physics.effects import ActuatorDelay, model_space
+from physics.effects import ActuatorDelay, GroundSlope, RateLimitedActuation, SensorBias, catalog, model_space
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="out/tutorial_diagnose")
     ap.add_argument("--quick", action="store_true", default=os.environ.get("TENSEGRID_QUICK") == "1",
-                    help="a smaller identification budget (what the test suite runs)")
+                    help="four effects, smaller budgets, one pass (what the test suite runs)")
     args = ap.parse_args()
 
     # The robot: nominal T6 plus an 80 ms actuator delay the identifier is not told about.
@@ -47,8 +48,13 @@ def main() -> None:
     print("what the first recording holds:", "; ".join(describe_trajectory(data[0])))
 
     # Identify on flops 0 and 1, criticize on flop 2, add what is found, identify again.
-    config = DiagnoseConfig(budget=24 if args.quick else 40, candidates=512 if args.quick else 2048, passes=2)
-    result = diagnose(data, held_out=[2], config=config, journal_dir=args.out,
+    if args.quick:   # four effects, coarser fits, one pass: the same loop in a few minutes
+        config = DiagnoseConfig(budget=24, candidates=512, passes=1,
+                                criticism=CriticismConfig(grid=5, refine=3, joint=1))
+        effects = [ActuatorDelay(), RateLimitedActuation(), SensorBias(), GroundSlope()]
+    else:
+        config, effects = DiagnoseConfig(budget=40, candidates=2048, passes=2), catalog()
+    result = diagnose(data, held_out=[2], effects=effects, config=config, journal_dir=args.out,
                       n_workers=0 if args.quick else 2)
     print(diagnosis_text(result))
     for path in write_report(result, data, args.out):

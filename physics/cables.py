@@ -133,6 +133,25 @@ def node_kinematics(positions: np.ndarray, velocities: np.ndarray, half_lengths:
 
 
 @njit(cache=True)
+def add_node_forces(axes: np.ndarray, half_lengths: np.ndarray, node_forces: np.ndarray,
+                    forces_out: np.ndarray) -> None:
+    """Add node forces (12 x 3) [N] to the FreeJoint generalised forces (36,): per rod the world
+    torque (h a) × (f1 - f0) about the centre and the force f0 + f1 (the layout of cable_wrenches)."""
+    for i in range(6):
+        h = half_lengths[i]
+        ax, ay, az = axes[i, 0], axes[i, 1], axes[i, 2]
+        f0 = node_forces[2 * i]
+        f1 = node_forces[2 * i + 1]
+        dfx, dfy, dfz = f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2]
+        forces_out[6 * i] += h * (ay * dfz - az * dfy)
+        forces_out[6 * i + 1] += h * (az * dfx - ax * dfz)
+        forces_out[6 * i + 2] += h * (ax * dfy - ay * dfx)
+        forces_out[6 * i + 3] += f0[0] + f1[0]
+        forces_out[6 * i + 4] += f0[1] + f1[1]
+        forces_out[6 * i + 5] += f0[2] + f1[2]
+
+
+@njit(cache=True)
 def cable_wrenches(positions: np.ndarray, velocities: np.ndarray, half_lengths: np.ndarray,
                    end_a: np.ndarray, end_b: np.ndarray, rest_lengths: np.ndarray,
                    stiffness: float, damping: float, quadratic: float, hysteresis: float, spin_damping: float,
@@ -168,44 +187,16 @@ def cable_wrenches(positions: np.ndarray, velocities: np.ndarray, half_lengths: 
         node_f[b, 0] -= f * ux
         node_f[b, 1] -= f * uy
         node_f[b, 2] -= f * uz
-    for i in range(6):
-        h = half_lengths[i]
+    forces_out[:] = 0.0
+    add_node_forces(axes, half_lengths, node_f, forces_out)
+    for i in range(6):            # the axial spin damper: τ = -c_spin (ω·a) a
         ax, ay, az = axes[i, 0], axes[i, 1], axes[i, 2]
-        f0 = node_f[2 * i]
-        f1 = node_f[2 * i + 1]
-        # torque = (h a) x (f1 - f0)
-        dfx, dfy, dfz = f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2]
-        tx = h * (ay * dfz - az * dfy)
-        ty = h * (az * dfx - ax * dfz)
-        tz = h * (ax * dfy - ay * dfx)
         w = velocities[6 * i:6 * i + 3]
         spin = spin_damping * (w[0] * ax + w[1] * ay + w[2] * az)
-        forces_out[6 * i] = tx - spin * ax
-        forces_out[6 * i + 1] = ty - spin * ay
-        forces_out[6 * i + 2] = tz - spin * az
-        forces_out[6 * i + 3] = f0[0] + f1[0]
-        forces_out[6 * i + 4] = f0[1] + f1[1]
-        forces_out[6 * i + 5] = f0[2] + f1[2]
+        forces_out[6 * i] -= spin * ax
+        forces_out[6 * i + 1] -= spin * ay
+        forces_out[6 * i + 2] -= spin * az
     return fastest
-
-
-@njit(cache=True)
-def add_node_forces(axes: np.ndarray, half_lengths: np.ndarray, node_forces: np.ndarray,
-                    forces_out: np.ndarray) -> None:
-    """Add node forces (12 x 3) [N] to the FreeJoint generalised forces (36,): per rod the world
-    torque (h a) × (f1 - f0) about the centre and the force f0 + f1 (the layout of cable_wrenches)."""
-    for i in range(6):
-        h = half_lengths[i]
-        ax, ay, az = axes[i, 0], axes[i, 1], axes[i, 2]
-        f0 = node_forces[2 * i]
-        f1 = node_forces[2 * i + 1]
-        dfx, dfy, dfz = f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2]
-        forces_out[6 * i] += h * (ay * dfz - az * dfy)
-        forces_out[6 * i + 1] += h * (az * dfx - ax * dfz)
-        forces_out[6 * i + 2] += h * (ax * dfy - ay * dfx)
-        forces_out[6 * i + 3] += f0[0] + f1[0]
-        forces_out[6 * i + 4] += f0[1] + f1[1]
-        forces_out[6 * i + 5] += f0[2] + f1[2]
 
 
 def cable_energy(lengths: np.ndarray, rest_lengths: np.ndarray, stiffness: float, quadratic: float = 0.0) -> float:

@@ -98,3 +98,16 @@ def test_trajectory_usage_errors(tmp_path, two_files, capsys) -> None:
     args = p.parse_args(["identify", *two_files, "--windows", "0", "--out", str(tmp_path), "--no-progress"])
     assert args.func(args) == 2
     assert "windows must be an integer >= 1" in capsys.readouterr().err
+
+
+def test_diagnose_usage_errors_name_the_fix(tmp_path, two_files, capsys) -> None:
+    """Bad input to ``tensegrid diagnose`` fails before any identification, saying what to do."""
+    from physics.cli import main
+
+    assert main(["diagnose", *two_files, "--effects", "magic", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr()
+    assert "unknown effect(s) ['magic']" in err.err and "samples at 100 Hz" in err.out
+    assert main(["diagnose", *two_files, "--held-out", "0", "1", "--out", str(tmp_path)]) == 2
+    assert "some (not all)" in capsys.readouterr().err
+    assert main(["diagnose", str(tmp_path / "missing.nc"), "--out", str(tmp_path)]) == 2
+    assert "does not exist" in capsys.readouterr().err
