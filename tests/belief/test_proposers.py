@@ -90,3 +90,22 @@ def test_bo_takes_another_acquisition(push_problem) -> None:
     free = [c for c in range(grid.size) if c not in first]
     assert res.history["cell"].values[5:].tolist() == free[:2]
     assert res.config["proposer"]["acquisition"].endswith("lowest_free")
+
+
+def test_a_warm_start_is_evaluated_first_and_saved_with_the_candidates(push_problem) -> None:
+    from belief import SobolCandidates
+    from belief.grid import candidates_from_config
+    from belief.proposers import WarmStart
+
+    obj, _ = push_problem()
+    dec = Identity(obj.space)
+    warm = dec.encode(obj.space.nominal)
+    grid = SobolCandidates(dec.bounds, n=64, seed=1, include=warm[None])
+    np.testing.assert_array_equal(grid.points[0], warm)
+    assert grid.size == 65 and candidates_from_config(grid.config()).config() == grid.config()
+    prop = BOProposer(0, initial=WarmStart([0], SobolDesign(0)))
+    res = identify(obj, dec, grid, budget=8, n_init=4, seed=0, proposer=prop, progress=False, posterior=None)
+    cells = res.history["cell"].values.tolist()
+    assert cells[0] == 0 and len(set(cells)) == 8
+    with pytest.raises(Exception, match="inside the latent box"):
+        SobolCandidates(dec.bounds, n=8, seed=1, include=[[5.0] * dec.dim])
