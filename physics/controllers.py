@@ -109,7 +109,8 @@ class FlopController:
     def _planner_model(self, model):
         if self._planner is None:
             from physics.tensegrity import T6Model
-            self._planner = T6Model(None, options=model.options)   # its own nominal model, no effects
+            # its own nominal model: the T6 part of the model's nominal θ, no effects
+            self._planner = T6Model(model.space.nominal[:15], options=model.options)
         return self._planner
 
     def plan(self, model) -> FlopPlan:
