@@ -78,7 +78,9 @@ def larger_effect(name: str, data: list, truth: dict) -> str:
     for missing in effects:
         kept = [e for e in effects if e is not missing]
         objective = TrajectoryError(data[2], horizon=25, loss="squared", effects=kept, n_workers=0)
-        costs[missing.name] = objective(model_space(kept).as_array(truth, check_bounds=False))
+        space = model_space(kept)
+        costs[missing.name] = objective(space.as_array({n: v for n, v in truth.items() if n in space.names},
+                                                       check_bounds=False))
     return max(costs, key=costs.get)
 
 
@@ -107,7 +109,7 @@ def run_one(name: str, seed: int, budget: int) -> dict:
 
 def summarize(rows: list[dict]) -> None:
     print(f"{'scenario':22s} {'seeds':>5} {'top=true':>8} {'found':>6} {'claimed':>7} {'explained':>9} "
-          f"{'after/before':>12} {'estimate (true)':>24} {'2nd found':>9}")
+          f"{'after/before':>12} {'criticism fit (true)':>24} {'2nd found':>9}")
     for name in dict.fromkeys(r["scenario"] for r in rows):
         rs = [r for r in rows if r["scenario"] == name]
         truth = rs[0]["truth"]
