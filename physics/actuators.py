@@ -31,6 +31,7 @@ from typing import Mapping, Protocol, runtime_checkable
 import numpy as np
 from numba import njit
 
+from physics.cables import cable_tensions
 from physics.errors import ParameterError
 
 __all__ = ["MotorGains", "motor_step", "rate_limited_step", "Actuator", "MotorActuator", "RateLimitedActuator"]
@@ -101,16 +102,52 @@ def rate_limited_step(rest: np.ndarray, speed: np.ndarray, target: np.ndarray, r
         speed[j] = d / dt
 
 
+_MOTOR, _RATE_LIMITED = 0, 1
+
+
+@njit(cache=True)
+def _follow(kind: int, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
+            substeps: int, law: tuple, motor: tuple, rate: float, min_rest: float, dt: float):
+    """Rest lengths and speeds (T x m each) of an actuator (``kind``) driven along observed cable
+    lengths and rates (T x m; lengths linear between samples, rates constant per interval), one
+    target row per physics step (substeps (T - 1) x m), tensions from physics.cables.cable_tensions."""
+    n, m = lengths.shape
+    rest, speed = rest0.copy(), np.zeros(m)
+    tension, now = np.empty(m), np.empty(m)
+    rest_out, speed_out = np.empty((n, m)), np.empty((n, m))
+    for i in range(n):
+        rest_out[i] = rest
+        speed_out[i] = speed
+        if i == n - 1:
+            break
+        for s in range(substeps):
+            target = targets[i * substeps + s]
+            if kind == _RATE_LIMITED:
+                rate_limited_step(rest, speed, target, rate, min_rest, dt)
+                continue
+            w = (s + 0.5) / substeps
+            for j in range(m):
+                now[j] = (1.0 - w) * lengths[i, j] + w * lengths[i + 1, j]
+            cable_tensions(now, rates[i], rest, law[0], law[1], law[2], law[3], tension)
+            motor_step(rest, speed, target, tension, motor[0], motor[1], motor[2], motor[3], motor[4], motor[5],
+                       motor[6], motor[7], motor[8])
+    return rest_out, speed_out
+
+
 @runtime_checkable
 class Actuator(Protocol):
     """The component that moves rest lengths toward targets, one physics step at a time.
 
     ``step(rest, speed, target, tension)`` updates rest lengths (24,) [m] and the actuator's speed
     state (24,) in place from the targets (24,) [m] and the cable tensions (24,) [N];
-    ``speed_from_rest(rate)`` turns a rest-length rate [m/s] into that speed state (for states
-    rebuilt from measured rest lengths)."""
+    ``follow(lengths, rates, targets, rest0, substeps, law)`` runs it along an observed cable
+    motion (the predictor's reconstruction, :func:`_follow`); ``speed_from_rest(rate)`` turns a
+    rest-length rate [m/s] into its speed state (for states rebuilt from measured rest lengths)."""
 
     def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None: ...
+
+    def follow(self, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
+               substeps: int, law: tuple) -> tuple[np.ndarray, np.ndarray]: ...
 
     def speed_from_rest(self, rate: np.ndarray) -> np.ndarray: ...
 
@@ -125,6 +162,11 @@ class MotorActuator:
 
     def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
         motor_step(rest, speed, target, tension, *self._args)
+
+    def follow(self, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
+               substeps: int, law: tuple) -> tuple[np.ndarray, np.ndarray]:
+        return _follow(_MOTOR, lengths, rates, targets, rest0, substeps, law, self._args, 1.0, self._args[7],
+                       self._args[8])
 
     def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
         """Spool speed ω = (dL0/dt) / r [rad/s]."""
@@ -141,6 +183,12 @@ class RateLimitedActuator:
 
     def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
         rate_limited_step(rest, speed, target, self.rate, self._min, self._dt)
+
+    def follow(self, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
+               substeps: int, law: tuple) -> tuple[np.ndarray, np.ndarray]:
+        motor = (1.0,) * 9   # unused by this kind
+        return _follow(_RATE_LIMITED, lengths, rates, targets, rest0, substeps, law, motor, self.rate, self._min,
+                       self._dt)
 
     def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
         return np.asarray(rate, float).copy()

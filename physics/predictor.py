@@ -26,7 +26,6 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from physics.cables import cable_tensions
 from physics.errors import TrajectoryFormatError
 from physics.geometry import CABLE_NODES
 from physics.tensegrity import T6Model
@@ -111,21 +110,10 @@ def reconstruct_actuators(obs: ObservedStates, model: T6Model) -> tuple[np.ndarr
             controls[i, bad[i]] = previous[bad[i]]
     dt = model.options.dt
     substeps = int(round(obs.interval / dt))
-    n, m = lengths.shape
-    step_times = obs.times[0] + dt * np.arange(substeps * (n - 1))
+    step_times = obs.times[0] + dt * np.arange(substeps * (len(lengths) - 1))
     targets = _delayed_targets(obs, model, controls, step_times)
-    rest, speed, tension = model.build_rest_length.copy(), np.zeros(m), np.empty(m)
-    rest_out, speed_out = np.empty((n, m)), np.empty((n, m))
-    law, actuator = model.setup.cable.args(), model.setup.actuator
-    for i in range(n):
-        rest_out[i], speed_out[i] = rest, speed
-        if i == n - 1:
-            break
-        for s in range(substeps):
-            w = (s + 0.5) / substeps
-            cable_tensions((1 - w) * lengths[i] + w * lengths[i + 1], rates[i], rest, *law, tension)
-            actuator.step(rest, speed, targets[i * substeps + s], tension)
-    return rest_out, speed_out
+    return model.setup.actuator.follow(lengths, rates, np.ascontiguousarray(targets), model.build_rest_length,
+                                       substeps, tuple(float(v) for v in model.setup.cable.args()))
 
 
 def actuator_states(obs: ObservedStates, model: T6Model, source: str = "auto") -> tuple[np.ndarray, np.ndarray]:
