@@ -21,7 +21,10 @@ identified θ̂, and a split of its segments into *fit* segments F and *held-out
    Before step 2 the model's own parameters are *re-tuned* (:func:`polish`: one coordinate sweep
    over every parameter, on F): an imperfect θ̂ leaves residual that any extra freedom absorbs,
    so effects are fitted and scored against the re-tuned θ̃ — the floor — not against θ̂. The
-   table's floor row says how much of the held-out residual re-tuning alone removed;
+   table's floor row says how much of the held-out residual re-tuning alone removed.
+   The ``joint`` best screened effects are then re-tuned together with the model's parameters
+   (one sweep from (θ̃, η̂)), and the base gets a second sweep of its own, so both had the same
+   search; those effects are scored against the base after its second sweep;
 3. verdict: the effect with the largest evidence is **found** if evidence_e >= ``min_evidence``
    and explained_e >= ``min_fraction``; otherwise **unexplained**, with where the residual
    concentrates (belief.residuals).
