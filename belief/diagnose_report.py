@@ -124,8 +124,7 @@ def _plot_ranking(d: Diagnosis, path: Path) -> None:
     colours = ["tab:green" if crit.found is not None and n == crit.found.name else "tab:gray" for n in names]
     fig, ax = plt.subplots(figsize=(8, 3.2))
     ax.barh(names[::-1], values[::-1], color=colours[::-1])
-    ax.axvline(max(crit.floor.explained, 0.0), color="k", ls="--", lw=1,
-               label="what re-tuning removed of the first estimate's error (the floor)")
+    ax.axvline(max(crit.floor.explained, 0.0), color="k", ls="--", lw=1, label=f"floor ({crit.floor.name})")
     ax.set_xlabel("held-out explained fraction (pass 1)")
     ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
