@@ -18,16 +18,28 @@ identified θ̂, and a split of its segments into *fit* segments F and *held-out
    leaves whiter residuals and so earns a larger K) and k_e the effect's parameter count.
    ``K ln(E_0/E_1)`` is twice the log-likelihood ratio of two Gaussian models with the residual
    variance profiled out;
-   Before step 2 the model's own parameters are *re-tuned* (:func:`polish`: one coordinate sweep
-   over every parameter, on F): an imperfect θ̂ leaves residual that any extra freedom absorbs,
-   so effects are fitted and scored against the re-tuned θ̃ — the floor — not against θ̂. The
-   table's floor row says how much of the held-out residual re-tuning alone removed.
-   The ``joint`` best screened effects are then re-tuned together with the model's parameters
-   (one sweep from (θ̃, η̂)), and the base gets a second sweep of its own, so both had the same
-   search; those effects are scored against the base after its second sweep;
+   Before step 2 the model's own parameters are *re-tuned* (:func:`polish`: a bounded
+   least-squares refinement of all of them on F, belief.least_squares): an imperfect θ̂ leaves
+   residual that any extra freedom absorbs, so effects are fitted and scored against the
+   re-tuned θ̃ — the floor — not against θ̂. The table's floor row says how much of the held-out
+   residual re-tuning alone removed.
+   The ``joint`` best screened effects are then refined together with the model's parameters
+   (least squares over (θ, η) from (θ̃, η̂): an effect the model's parameters partly mimic, such
+   as a stiffening cable law against the stiffness, is only seen when both move at once), and
+   the base gets a second refinement of its own, so both had the same search; those effects
+   are scored against the base after it;
 3. verdict: the effect with the largest evidence is **found** if evidence_e >= ``min_evidence``
-   and explained_e >= ``min_fraction``; otherwise **unexplained**, with where the residual
-   concentrates (belief.residuals).
+   and explained_e >= ``min_fraction``. When the data carry two effects, each alone leaves the
+   other's structured residual and so earns little evidence; then, if the best has positive
+   evidence, the two best are refined together, and each one's *conditional* evidence is scored: the
+   pair against the model with the other one only (same formula). If both reach
+   ``min_evidence`` and the pair explains ``min_fraction`` of the held-out error, the first of
+   the two is found (the next pass looks for the second). Otherwise **unexplained**, with where
+   the residual concentrates (belief.residuals).
+   Effects whose evidence lies within ``tie`` of the best are not told apart by it (a sensor
+   bias and a larger end-cap radius both lift the resting robot): of those that would each be
+   found, the one that explains most of the held-out error is ranked first, and the others
+   within ``tie`` are reported as ``alternatives`` to the found one.
 """
 from __future__ import annotations
 
@@ -38,7 +50,9 @@ from typing import Any, Sequence
 import numpy as np
 from tqdm.auto import tqdm
 
+from belief import least_squares
 from belief.errors import BeliefError
+from belief.least_squares import LeastSquaresConfig
 from belief.noise import effective_size
 
 __all__ = ["CriticismConfig", "Candidate", "Criticism", "VERDICTS", "criticize", "fit_effect", "polish"]
@@ -48,22 +62,26 @@ VERDICTS = ("found", "unexplained")
 
 @dataclass(frozen=True)
 class CriticismConfig:
-    """grid, refine: values per parameter in the first and second pass of a fit; min_evidence
-    (ΔBIC, natural-log units ×2) and min_fraction (held-out explained fraction) an effect must
-    reach to be found; joint: how many of the best screened effects are re-tuned jointly with
-    the model's parameters (0: none)."""
+    """grid, refine: values per parameter in the first and second pass of an effect's screening
+    fit; min_evidence (ΔBIC, natural-log units ×2) and min_fraction (held-out explained fraction)
+    an effect must reach to be found; joint: how many of the best screened effects are refined
+    jointly with the model's parameters (0: none); tie: an evidence difference below which two
+    effects are indistinguishable by evidence (6: "strong" on Kass and Raftery's scale); local:
+    the least-squares refinement of the re-tuning and of the joint fits."""
 
     grid: int = 7
     refine: int = 5
     min_evidence: float = 10.0
     min_fraction: float = 0.3
     joint: int = 3
+    tie: float = 6.0
+    local: LeastSquaresConfig = field(default_factory=LeastSquaresConfig)
 
     def __post_init__(self) -> None:
         if self.grid < 3 or self.refine < 3:
             raise BeliefError(f"CriticismConfig needs grid >= 3 and refine >= 3 values, got {self.grid}, {self.refine}.")
-        if not (self.min_evidence >= 0 and 0 <= self.min_fraction < 1):
-            raise BeliefError("CriticismConfig needs min_evidence >= 0 and min_fraction in [0, 1).")
+        if not (self.min_evidence >= 0 and 0 <= self.min_fraction < 1 and self.tie >= 0):
+            raise BeliefError("CriticismConfig needs min_evidence >= 0, min_fraction in [0, 1) and tie >= 0.")
 
 
 @dataclass(frozen=True)
@@ -102,6 +120,8 @@ class Criticism:
     verdict: str
     found: Candidate | None
     structure: dict[str, Any] = field(default_factory=dict)
+    pair: dict[str, Any] | None = None    # the two best refined together (module docstring, step 3)
+    alternatives: list[str] = field(default_factory=list)   # effects the evidence cannot tell from the found one
 
     def table(self) -> str:
         """The ranking as text: effect, evidence above the floor, explained fraction, fitted size."""
@@ -111,6 +131,13 @@ class Criticism:
         for k, c in enumerate(self.ranking, 1):
             mark = " <- found" if self.found is not None and c.name == self.found.name else ""
             lines.append(f"{k:>4}  {c.name:24s} {c.evidence:10.1f} {c.explained:10.1%}  {_values(c.values)}{mark}")
+        if self.alternatives:
+            lines.append(f"      indistinguishable by evidence from the found effect: {', '.join(self.alternatives)}")
+        if self.pair is not None:
+            a, b = self.pair["effects"]
+            given = self.pair["given"]
+            lines.append(f"      pair {a} + {b}: explains {self.pair['explained']:.1%}; evidence of {a} given {b} "
+                         f"{given[a]:.1f}, of {b} given {a} {given[b]:.1f}")
         return "\n".join(lines)
 
     def as_dict(self) -> dict[str, Any]:
@@ -118,7 +145,8 @@ class Criticism:
         return {"verdict": self.verdict, "found": None if self.found is None else asdict(self.found),
                 "floor": asdict(self.floor), "ranking": [asdict(c) for c in self.ranking],
                 "base_fit": self.base_fit, "base_held": self.base_held, "n_eff_fit": self.n_eff_fit,
-                "n_eff_held": self.n_eff_held, "structure": self.structure}
+                "n_eff_held": self.n_eff_held, "structure": self.structure, "pair": self.pair,
+                "alternatives": self.alternatives}
 
 
 def _values(values: dict[str, float]) -> str:
@@ -191,18 +219,12 @@ def _sizes(objective: Any, theta: np.ndarray, fit: np.ndarray, held: np.ndarray)
 
 
 def polish(objective: Any, theta: np.ndarray, fit: np.ndarray, config: CriticismConfig = CriticismConfig(),
-           progress: bool = False, order: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """One coordinate sweep over the parameters ``order`` (default all, in order) on the fit
-    segments (a grid pass per parameter, the current value included, so the fit error never
-    rises): θ̃ (D,) and its parts (S,)."""
-    theta = np.asarray(theta, float).copy()
-    parts = np.asarray(objective.evaluate_parts(theta), float)
-    order = range(objective.space.dim) if order is None else order
-    for j in tqdm(order, desc="re-tune", leave=False, disable=not progress):
-        refit, refit_parts = fit_effect(objective, theta, [j], fit, config, refine=False)
-        if np.isfinite(refit_parts).all() and refit_parts[fit].sum() < parts[fit].sum():
-            theta, parts = refit, refit_parts
-    return theta, parts
+           indices: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Re-tune the parameters ``indices`` (default all) on the fit segments by bounded least
+    squares (belief.least_squares; the fit error never rises): θ̃ (D,) and its parts (S,)."""
+    indices = range(objective.space.dim) if indices is None else indices
+    result = least_squares.refine(objective, np.asarray(theta, float), indices, fit, config.local)
+    return result.theta, result.parts
 
 
 def _screen(objective: Any, theta: np.ndarray, parts: np.ndarray, effect: Any, fit: np.ndarray, held: np.ndarray,
@@ -217,26 +239,80 @@ def _screen(objective: Any, theta: np.ndarray, parts: np.ndarray, effect: Any, f
     return replace(c, theta=tuple(float(v) for v in fitted))
 
 
-def _with(objective: Any, c: Candidate) -> Any:
+def _with(objective: Any, *candidates: Candidate) -> Any:
     from physics.effects import effect_from_config
 
-    return objective.with_effects(tuple(objective.effects) + (effect_from_config(c.config),))
+    return objective.with_effects(tuple(objective.effects) + tuple(effect_from_config(c.config) for c in candidates))
 
 
 def _joint(objective: Any, c: Candidate, fit: np.ndarray, held: np.ndarray, base: tuple[float, float],
-           config: CriticismConfig, progress: bool) -> Candidate:
-    """A screened effect re-tuned jointly: one sweep over its parameters, then the model's, from
-    (θ̃, η̂); scored against the base after its own second sweep."""
+           config: CriticismConfig) -> Candidate:
+    """A screened effect refined jointly with the model's parameters from (θ̃, η̂); scored against
+    the base after its own second refinement."""
+    if not np.isfinite(c.evidence):
+        return c
     extended = _with(objective, c)
     D = objective.space.dim
-    order = list(range(D, extended.space.dim)) + list(range(D))
-    theta, parts = polish(extended, np.asarray(c.theta), fit, config, progress, order=order)
+    theta, parts = polish(extended, np.asarray(c.theta), fit, config)
     if not np.isfinite(parts).all():
         return _rescore(c, base)
     k_fit, k_held = _sizes(extended, theta, fit, held)
     values = {extended.space.names[j]: float(theta[j]) for j in range(D, extended.space.dim)}
     out = _candidate(c.name, "effect", values, parts, fit, held, base, k_fit, k_held, len(values), c.config)
     return replace(out, stage="joint", theta=tuple(float(v) for v in theta))
+
+
+def _pair(objective: Any, a: Candidate, b: Candidate, fit: np.ndarray, held: np.ndarray, base: tuple[float, float],
+          config: CriticismConfig) -> dict[str, Any] | None:
+    """``a`` and ``b`` (joint fits) refined together from a's θ and b's η; the pair's held-out
+    explained fraction against ``base`` and each member's evidence given the other (module docstring)."""
+    extended = _with(objective, a, b)
+    start = np.r_[np.asarray(a.theta, float), np.asarray(b.theta, float)[objective.space.dim:]]
+    theta, parts = polish(extended, start, fit, config)
+    if not np.isfinite(parts).all():
+        return None
+    k_fit, k_held = _sizes(extended, theta, fit, held)
+    given = {}
+    for member, other in ((a, b), (b, a)):
+        c = _candidate(member.name, "effect", member.values, parts, fit, held, (other.fit_error, other.held_error),
+                       k_fit, k_held, len(member.values), member.config)
+        given[member.name] = c.evidence
+    names = extended.space.names
+    return {"effects": [a.name, b.name], "given": given, "explained": 1.0 - float(parts[held].sum()) / base[1],
+            "fit_error": float(parts[fit].sum()), "held_error": float(parts[held].sum()),
+            "values": {names[j]: float(theta[j]) for j in range(objective.space.dim, len(names))}}
+
+
+def _passes(c: Candidate, config: CriticismConfig) -> bool:
+    return c.evidence >= config.min_evidence and c.explained >= config.min_fraction
+
+
+def _order(ranking: list[Candidate], config: CriticismConfig) -> list[Candidate]:
+    """By evidence, best first, except that the effects within ``tie`` of the best evidence that
+    would each be found come first, by held-out explained fraction (module docstring, step 3)."""
+    ranking = sorted(ranking, key=lambda c: -c.evidence)
+    if not ranking or not np.isfinite(ranking[0].evidence):
+        return ranking
+    close = [c for c in ranking if c.evidence >= ranking[0].evidence - config.tie and _passes(c, config)]
+    return sorted(close, key=lambda c: -c.explained) + [c for c in ranking if c not in close]
+
+
+def _verdict(objective: Any, crit: Criticism, fit: np.ndarray, held: np.ndarray, config: CriticismConfig) -> Criticism:
+    """Set crit.verdict and crit.found (module docstring, step 3), trying the pair when no single effect suffices."""
+    ranking = crit.ranking
+    if not ranking:
+        return crit
+    top = ranking[0]
+    if _passes(top, config):
+        crit.verdict, crit.found = "found", top
+        best = max(c.evidence for c in ranking)
+        crit.alternatives = [c.name for c in ranking[1:] if c.evidence >= best - config.tie]
+    elif len(ranking) > 1 and top.evidence > 0 and all(c.stage == "joint" for c in ranking[:2]):
+        crit.pair = _pair(objective, ranking[0], ranking[1], fit, held, (crit.base_fit, crit.base_held), config)
+        if (crit.pair is not None and min(crit.pair["given"].values()) >= config.min_evidence
+                and crit.pair["explained"] >= config.min_fraction):
+            crit.verdict, crit.found = "found", top
+    return crit
 
 
 def criticize(objective: Any, theta: np.ndarray, *, fit: Sequence[bool], held: Sequence[bool],
@@ -257,22 +333,20 @@ def criticize(objective: Any, theta: np.ndarray, *, fit: Sequence[bool], held: S
     effects = [e for e in effects if e.name not in present]
     start = np.asarray(theta, float)
     start_parts = np.asarray(objective.evaluate_parts(start), float)
-    theta, parts = polish(objective, start, fit, config, progress)
+    theta, parts = polish(objective, start, fit, config)
     screened = [_screen(objective, theta, parts, e, fit, held, config)
                 for e in tqdm(effects, desc="effects", leave=False, disable=not progress)]
-    if config.joint > 0 and screened:   # a second sweep for the base too, so both get the same search
-        theta, parts = polish(objective, theta, fit, config, progress)
+    if config.joint > 0 and screened:   # a second refinement for the base too, so both get the same search
+        theta, parts = polish(objective, theta, fit, config)
     n_fit, n_held = _sizes(objective, theta, fit, held)
     base = (float(parts[fit].sum()), float(parts[held].sum()))
     moved = {n: float(v) for n, v, v0 in zip(objective.space.names, theta, start) if v != v0}
     floor = _candidate("re-tuned model", "floor", moved, parts, fit, held,
                        (float(start_parts[fit].sum()), float(start_parts[held].sum())), n_fit, n_held, len(moved), {})
     screened.sort(key=lambda c: -c.evidence)
-    ranking = [_joint(objective, c, fit, held, base, config, progress) for c in screened[:config.joint]]
-    ranking += [_rescore(c, base) for c in screened[config.joint:]]
-    ranking.sort(key=lambda c: -c.evidence)
+    top = tqdm(screened[:config.joint], desc="joint fits", leave=False, disable=not progress)
+    ranking = [_joint(objective, c, fit, held, base, config) for c in top]
+    ranking = _order(ranking + [_rescore(c, base) for c in screened[config.joint:]], config)
     crit = Criticism(theta, base[0], base[1], n_fit, n_held, ranking, floor, "unexplained", None,
                      dict(structure or {}))
-    if ranking and ranking[0].evidence >= config.min_evidence and ranking[0].explained >= config.min_fraction:
-        crit.verdict, crit.found = "found", ranking[0]
-    return crit
+    return _verdict(objective, crit, fit, held, config)

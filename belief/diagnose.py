@@ -74,6 +74,22 @@ class Pass:
     held_after: dict[str, float] | None = None
     belief_after: Belief | None = None
 
+    def estimates(self) -> dict[str, dict[str, Any]]:
+        """The added effect's parameters after re-identification: name -> {"value" (best θ),
+        "lower", "upper" (the Belief's credible interval), "level", "verdict"}; empty when nothing was added."""
+        if self.theta_after is None:
+            return {}
+        names = self.names_after[len(self.names):]
+        after = dict(zip(self.names_after, self.theta_after.tolist()))
+        out: dict[str, dict[str, Any]] = {n: {"value": after[n]} for n in names}
+        if self.belief_after is not None:
+            m = self.belief_after.marginals()
+            for n in names:
+                row = m.sel(parameter=n)
+                out[n].update(lower=float(row["lower"]), upper=float(row["upper"]), level=float(m.attrs["level"]),
+                              verdict=str(row["verdict"].values))
+        return out
+
     @property
     def reduction(self) -> float | None:
         """1 - E_after / E_before on all held-out data, or None when nothing was added."""

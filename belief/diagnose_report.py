@@ -50,9 +50,15 @@ def diagnosis_text(d: Diagnosis) -> str:
             out.append(f"{key:10s} {b:12.5g} {a:12.5g} {a / b - 1:+8.1%}")
         tb, ta = sum(p.held_before.values()), sum(p.held_after.values())
         out.append(f"{'total':10s} {tb:12.5g} {ta:12.5g} {ta / tb - 1:+8.1%}")
-        after = dict(zip(p.names_after, p.theta_after))
-        out.append("re-identified: " + ", ".join(f"{n}={after[n]:.4g}" for n in p.names_after[len(p.names):]))
+        out.append("re-identified: " + "; ".join(_estimate(n, e) for n, e in p.estimates().items()))
     return "\n".join(out)
+
+
+def _estimate(name: str, e: dict[str, Any]) -> str:
+    """``name=value`` with the credible interval and verdict when the re-identification has a Belief."""
+    if "lower" not in e:
+        return f"{name}={e['value']:.4g}"
+    return f"{name}={e['value']:.4g} ({e['level']:.0%} interval [{e['lower']:.4g}, {e['upper']:.4g}], {e['verdict']})"
 
 
 def _objective(d: Diagnosis, trajectories: Sequence[Any], effects: Sequence[Any]) -> Any:
@@ -178,7 +184,7 @@ def write_report(d: Diagnosis, trajectories: Sequence[Any], out: "str | Path") -
     paths[0].write_text(diagnosis_text(d) + "\n")
     record = {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
               "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
-                          "added": p.added, "held_after": p.held_after,
+                          "added": p.added, "held_after": p.held_after, "estimates": p.estimates(),
                           "theta_after": None if p.theta_after is None else dict(zip(p.names_after, p.theta_after.tolist())),
                           "theta": dict(zip(p.names, p.theta.tolist()))} for p in d.passes]}
     paths[1].write_text(json.dumps(record, indent=1, default=float))

@@ -6,7 +6,7 @@ motion-capture noise; the recordings do not say that anything is delayed. ``diag
 
 1. identifies the 15 T6 parameters on the first two flops,
 2. ranks the catalog effects by how much of the third flop's residual each explains beyond what
-   re-tuning one of the model's own parameters explains (the floor),
+   re-tuning the model's own parameters explains (the floor),
 3. adds the winner, identifies again with it, and reports the third flop's error before and after.
 
 Run::

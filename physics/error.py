@@ -41,7 +41,7 @@ import xarray as xr
 
 from physics.effects.base import Effect, model_space
 from physics.errors import ParameterError, TrajectoryFormatError
-from physics.objective import BatchResult, OnResult, Row, check_windows, evaluate_row
+from physics.objective import BatchResult, OnResult, Row, check_windows, evaluate_row, residual_row
 from physics.parameters import ParameterSpace
 from physics.pool import DaskPool, map_serial
 from physics.predictor import ObservedStates, actuator_states, predict
@@ -265,6 +265,16 @@ class TrajectoryError:
         else:
             rows = map_serial(evaluate_row, self, list(thetas), callback)
         return BatchResult.from_rows(rows, len(self.segments))
+
+    def residuals_batch(self, thetas: np.ndarray, *, parallel: bool = True) -> list[list[np.ndarray] | None]:
+        """:meth:`residuals` at each row of ``thetas`` (n x D), on the workers like :meth:`evaluate_batch`;
+        None for a row whose simulation diverged or failed."""
+        thetas = np.atleast_2d(self.space.as_array(thetas, check_bounds=False))
+        if thetas.ndim != 2:
+            raise ParameterError(f"thetas must have shape (n, {self.space.dim}), got {thetas.shape}.")
+        if parallel:
+            return self._pool.map_rows(residual_row, self, list(thetas))
+        return map_serial(residual_row, self, list(thetas))
 
     def with_effects(self, effects: Sequence[Effect]) -> "TrajectoryError":
         """The same data and settings with the model's effects replaced by ``effects`` (θ then lives

@@ -43,7 +43,7 @@ from physics.errors import ParameterError, PhysicsError, TensegridError
 if TYPE_CHECKING:
     from physics.parameters import ParameterSpace
 
-__all__ = ["STATUSES", "BatchResult", "Objective", "OnResult", "Row", "evaluate_row", "check_windows"]
+__all__ = ["STATUSES", "BatchResult", "Objective", "OnResult", "Row", "evaluate_row", "residual_row", "check_windows"]
 
 STATUSES: tuple[str, ...] = ("ok", "diverged", "failed")
 
@@ -166,6 +166,16 @@ def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:
     return float(parts.sum()), "ok", seconds, "", parts
 
 
+def residual_row(objective: "Objective", theta: np.ndarray) -> list[np.ndarray] | None:
+    """``objective.residuals(theta)`` (S arrays (T_s, m)), or None when the simulation diverged
+    (:class:`PhysicsError`), another tensegrid error was raised, or a residual is inf. Bugs propagate."""
+    try:
+        out = [np.asarray(r, dtype=float) for r in objective.residuals(theta)]
+    except TensegridError:
+        return None
+    return None if any(np.isinf(r).any() for r in out) else out
+
+
 @runtime_checkable
 class Objective(Protocol):
     """Structural type of an objective E(θ) = Σ_s E_s(θ) (see the module docstring for the contract).
@@ -205,6 +215,10 @@ class Objective(Protocol):
 
     def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
         """Residual vectors x_obs - x_pred per segment: S arrays (T_s, m), time order, NaN rows not compared."""
+        ...
+
+    def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
+        """``residuals`` at each row of θs (n, D), None where the evaluation was not ok."""
         ...
 
     def fingerprint(self) -> dict[str, Any]:

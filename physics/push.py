@@ -29,7 +29,7 @@ from typing import Sequence
 import numpy as np
 
 from physics.errors import ParameterError, PhysicsError
-from physics.objective import BatchResult, OnResult, check_windows, evaluate_row
+from physics.objective import BatchResult, OnResult, check_windows, evaluate_row, residual_row
 from physics.parameters import Parameter, ParameterSpace
 from physics.pool import map_serial
 
@@ -202,3 +202,10 @@ class PushError:
             raise ParameterError(f"thetas must have shape (n, {self.space.dim}) in the order (m, mu), got {arr.shape}.")
         relay = None if on_result is None else (lambda k, row: on_result(k, *row))
         return BatchResult.from_rows(map_serial(evaluate_row, self, list(arr), relay), len(self.segments))
+
+    def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
+        """:meth:`residuals` at each row of ``thetas`` (``n x 2``), None where the evaluation failed."""
+        arr = np.atleast_2d(np.asarray(thetas, dtype=float))
+        if arr.ndim != 2 or arr.shape[1] != self.space.dim:
+            raise ParameterError(f"thetas must have shape (n, {self.space.dim}) in the order (m, mu), got {arr.shape}.")
+        return map_serial(residual_row, self, list(arr))

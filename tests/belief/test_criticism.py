@@ -90,3 +90,43 @@ def test_an_effect_outside_the_catalog_is_not_attributed_with_confidence():
     fit, held = split_masks(objective.segments, [1])
     crit = criticize(objective, theta[:15], fit=fit, held=held, effects=SUBSET, config=QUICK, progress=False)
     assert crit.verdict == "unexplained", crit.table()
+
+
+def test_one_trajectory_alternates_its_windows_between_fit_and_held_out():
+    effects = [ActuatorDelay()]
+    data, theta = _flops(effects, {"actuator_delay": 0.08}, headings=(0.0,), duration=1.5)
+    objective = TrajectoryError(data, horizon=25, loss="squared", windows=4, n_workers=0)
+    fit, held = split_masks(objective.segments, [])
+    assert fit.tolist() == [True, False, True, False]
+    crit = criticize(objective, theta[:15], fit=fit, held=held, effects=[SensorBias(), ActuatorDelay()],
+                     config=CriticismConfig(grid=5, refine=3, joint=2), progress=False)
+    assert crit.verdict == "found" and crit.found.name == "actuator_delay", crit.table()
+    assert crit.found.explained > 0.5 and crit.found.values["actuator_delay"] == pytest.approx(0.08, abs=0.02)
+
+
+def test_a_mix_of_two_effects_finds_the_larger_first():
+    effects = [ActuatorDelay(), GroundSlope()]
+    data, theta = _flops(effects, {"actuator_delay": 0.08, "slope_x": 0.08}, duration=1.5)
+    objective = TrajectoryError(data, horizon=25, loss="squared", n_workers=0)
+    fit, held = split_masks(objective.segments, [1])
+    crit = criticize(objective, theta[:15], fit=fit, held=held, effects=effects, config=QUICK, progress=False)
+    # alone, each leaves the other's residual; together they explain the held-out flop
+    assert crit.verdict == "found" and crit.found.name == "actuator_delay", crit.table()
+    assert crit.pair is not None and crit.pair["explained"] > 0.8, crit.table()
+    assert min(crit.pair["given"].values()) >= QUICK.min_evidence, crit.table()
+
+
+def test_effects_the_evidence_cannot_tell_apart_are_ordered_by_held_out_fit_and_named():
+    from belief.criticism import Candidate, Criticism, _order, _verdict
+
+    def c(name, evidence, explained):
+        return Candidate(name, "effect", {name: 1.0}, 1.0, 1.0, explained, evidence, stage="joint")
+
+    config = CriticismConfig()
+    ranking = _order([c("bias", 85.1, 0.80), c("caps", 83.9, 0.84), c("drag", 20.0, 0.9), c("slope", 84.0, 0.2)], config)
+    assert [r.name for r in ranking] == ["caps", "bias", "slope", "drag"]    # slope is close but would not be found
+    crit = _verdict(None, Criticism(np.zeros(15), 1.0, 1.0, 10, 10, ranking, ranking[0], "unexplained", None), None,
+                    None, config)
+    assert crit.found.name == "caps" and crit.alternatives == ["bias", "slope"]
+    apart = _order([c("bias", 95.0, 0.80), c("caps", 83.9, 0.84)], config)
+    assert [r.name for r in apart] == ["bias", "caps"]

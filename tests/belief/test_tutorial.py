@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from belief.verdicts import VERDICTS
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -46,5 +48,8 @@ def test_tutorial_diagnose_quick_finds_the_hidden_delay(tmp_path) -> None:
     assert first["criticism"]["ranking"][0]["name"] == "actuator_delay", out.stdout
     assert first["added"] == "actuator_delay"
     assert sum(first["held_after"].values()) <= 0.5 * sum(first["held_before"].values()), out.stdout
+    delay = first["estimates"]["actuator_delay"]      # re-identified, with the Belief's interval and verdict
+    assert delay["lower"] <= delay["upper"] and delay["verdict"] in VERDICTS
+    assert "interval [" in (tmp_path / "report.txt").read_text()
     for name in ("report.txt", "residual_time.png", "residual_nodes.png", "ranking.png", "signature.png"):
         assert (tmp_path / name).stat().st_size > 500, name

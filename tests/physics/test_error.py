@@ -96,6 +96,17 @@ def test_divergence_raises_alone_and_is_recorded_in_a_batch(space, flop_data):
     assert (result.seconds > 0).all()
 
 
+def test_residuals_batch_matches_residuals_and_marks_divergence(space, flop_data):
+    E = TrajectoryError(flop_data.isel(time=slice(0, 50)), horizon=5, loss="squared")
+    diverging = space.replace(stiffnessActive=1e7)
+    rows = E.residuals_batch(np.stack([space.nominal, diverging, space.replace(damping=150.0)]), parallel=False)
+    assert rows[1] is None
+    for got, theta in zip(rows[::2], (space.nominal, space.replace(damping=150.0))):
+        want = E.residuals(theta)
+        assert len(got) == len(E.segments) and all(np.array_equal(a, b, equal_nan=True) for a, b in zip(got, want))
+        assert sum(np.nansum(r ** 2) for r in got) == pytest.approx(E(theta))
+
+
 @pytest.mark.slow
 def test_batch_on_a_local_dask_cluster_matches_serial(space, flop_data):
     thetas = space.sample(4, seed=3)

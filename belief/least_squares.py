@@ -1,0 +1,138 @@
+"""Local least-squares refinement of some of θ's parameters on some segments of a sum-of-squares objective.
+
+Minimises E_F(θ) = Σ_{s in F} Σ r_s(θ)² (r the objective's residual vectors, F a mask over its
+segments) over the parameters ``indices``, the others held, with scipy's bounded trust-region
+reflective method (``scipy.optimize.least_squares(method="trf")``). The variables are the unit
+box u = (θ - lower) / (upper - lower), so every parameter has the same scale and the box is
+[0, 1]^k. The Jacobian is a forward difference, one batch of k evaluations that the objective
+runs in parallel (``residuals_batch``)::
+
+    J[:, j] = (r(u + h e_j) - r(u)) / h          (h = ``step``, backwards at the upper bound)
+
+A coordinate search moves one parameter at a time and so crawls along the ridges where
+parameters trade off (cable stiffness against a stiffening law, damping against drag); a
+Gauss-Newton step moves along them in one go. The result is the best θ evaluated, so E_F never
+rises above the start's. A θ whose simulation diverges gets the residual ``10 r(start)``, which
+the trust region then steps away from.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+from scipy.optimize import least_squares as scipy_least_squares
+
+from belief.errors import BeliefError
+
+__all__ = ["LeastSquaresConfig", "LocalFit", "refine"]
+
+
+@dataclass(frozen=True)
+class LeastSquaresConfig:
+    """evaluations: most residual evaluations of trial points (each Jacobian costs k more, in one
+    batch); step: the finite-difference step h in the unit box; tolerance: stop when a step
+    lowers E_F by less than this fraction (scipy's ftol)."""
+
+    evaluations: int = 12
+    step: float = 0.01
+    tolerance: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if self.evaluations < 1 or not (0 < self.step < 0.5) or not (0 < self.tolerance < 1):
+            raise BeliefError(f"LeastSquaresConfig needs evaluations >= 1, 0 < step < 0.5 and 0 < tolerance < 1, "
+                              f"got {self.evaluations}, {self.step}, {self.tolerance}.")
+
+
+@dataclass(frozen=True)
+class LocalFit:
+    """theta (D,) the best point evaluated, parts (S,) its per-segment errors Σ r_s², error E_F,
+    start_error E_F at the start, evaluations (trial points plus Jacobian rows)."""
+
+    theta: np.ndarray
+    parts: np.ndarray
+    error: float
+    start_error: float
+    evaluations: int
+
+
+def _flat(residuals: Sequence[np.ndarray], mask: np.ndarray) -> np.ndarray:
+    """The residuals of the masked segments as one vector, NaN (not compared) as 0."""
+    return np.nan_to_num(np.concatenate([np.ravel(r) for r, m in zip(residuals, mask) if m]), nan=0.0)
+
+
+class _Problem:
+    """r(u) and J(u) of the masked segments for scipy, each θ evaluated once (cached)."""
+
+    def __init__(self, objective: Any, theta: np.ndarray, indices: list[int], mask: np.ndarray, step: float) -> None:
+        self.objective, self.theta, self.indices, self.mask, self.step = objective, theta, indices, mask, step
+        self.lower, self.width = objective.space.lower[indices], objective.space.upper[indices] - objective.space.lower[indices]
+        self.cache: dict[bytes, list[np.ndarray] | None] = {}
+        self.evaluations = 0
+        start = self.full(self.unit(theta[indices]))
+        if start is None:
+            raise BeliefError("least-squares refinement cannot start: the simulation at the starting θ diverged or failed.")
+        self.penalty = 10.0 * _flat(start, mask) + 1e-12
+
+    def unit(self, values: np.ndarray) -> np.ndarray:
+        return (np.asarray(values, float) - self.lower) / self.width
+
+    def thetas(self, us: np.ndarray) -> np.ndarray:
+        rows = np.repeat(self.theta[None], len(us), axis=0)
+        rows[:, self.indices] = self.lower + self.width * np.clip(us, 0.0, 1.0)
+        return rows
+
+    def evaluate(self, us: np.ndarray) -> list[list[np.ndarray] | None]:
+        """Residual lists at the rows of ``us`` (n, k), evaluating only those not seen before."""
+        keys = [np.asarray(u, float).tobytes() for u in us]
+        new = [k for k, key in enumerate(keys) if key not in self.cache]
+        if new:
+            results = self.objective.residuals_batch(self.thetas(us[new]))
+            self.evaluations += len(new)
+            for k, res in zip(new, results):
+                self.cache[keys[k]] = res
+        return [self.cache[key] for key in keys]
+
+    def full(self, u: np.ndarray) -> list[np.ndarray] | None:
+        return self.evaluate(np.asarray(u, float)[None])[0]
+
+    def fun(self, u: np.ndarray) -> np.ndarray:
+        res = self.full(u)
+        return self.penalty if res is None else _flat(res, self.mask)
+
+    def jac(self, u: np.ndarray) -> np.ndarray:
+        r0 = self.fun(u)
+        steps = np.where(u + self.step <= 1.0, self.step, -self.step)
+        shifted = np.repeat(np.asarray(u, float)[None], len(u), axis=0) + np.diag(steps)
+        columns = [np.zeros_like(r0) if res is None else (_flat(res, self.mask) - r0) / h
+                   for res, h in zip(self.evaluate(shifted), steps)]
+        return np.stack(columns, axis=1)
+
+    def best(self) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The evaluated point (unit box) with the lowest E_F and its residuals."""
+        scored = [(float((_flat(r, self.mask) ** 2).sum()), key, r) for key, r in self.cache.items() if r is not None]
+        _, key, res = min(scored, key=lambda t: t[0])
+        return np.frombuffer(key, dtype=float), res
+
+
+def refine(objective: Any, theta: np.ndarray, indices: Sequence[int], mask: Sequence[bool],
+           config: LeastSquaresConfig = LeastSquaresConfig()) -> LocalFit:
+    """Refine θ[indices] (θ (D,)) on the segments ``mask`` (S,) by bounded least squares (module
+    docstring). The objective needs ``residuals_batch`` (physics.objective). Raises BeliefError
+    if the simulation at θ itself fails."""
+    theta = np.asarray(theta, float).copy()
+    mask = np.asarray(mask, bool)
+    index = [int(j) for j in indices]
+    if mask.shape != (len(objective.segments),) or not mask.any():
+        raise BeliefError(f"mask must be a non-empty boolean mask over the {len(objective.segments)} segments.")
+    if not index:
+        raise BeliefError("refine needs at least one parameter index.")
+    problem = _Problem(objective, theta, index, mask, config.step)
+    start = np.clip(problem.unit(theta[index]), 0.0, 1.0)
+    start_error = float((problem.fun(start) ** 2).sum())
+    scipy_least_squares(problem.fun, start, jac=problem.jac, bounds=(0.0, 1.0), method="trf", x_scale=1.0,
+                        ftol=config.tolerance, xtol=1e-4, gtol=1e-8, max_nfev=config.evaluations)
+    u, residuals = problem.best()
+    theta[index] = problem.thetas(u[None])[0, index]
+    parts = np.array([np.nansum(np.asarray(r) ** 2) for r in residuals])
+    return LocalFit(theta, parts, float(parts[mask].sum()), start_error, problem.evaluations)

@@ -1,0 +1,81 @@
+"""Bounded least-squares refinement (belief.least_squares) on problems whose answer is known."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import lsq_linear
+
+from belief.errors import BeliefError
+from belief.least_squares import LeastSquaresConfig, refine
+from physics import ParameterSpace, PushError, generate_push_data, push_space
+from physics.parameters import Parameter
+
+
+class Linear:
+    """r(θ) = y - A θ split into two segments: the minimum of ||r||² in the box is lsq_linear's."""
+
+    def __init__(self, A, y, lower, upper):
+        self.A, self.y = A, y
+        self.space = ParameterSpace(tuple(Parameter(f"p{j}", "1", 0.5 * (lo + hi), lo, hi, "", minimum=-np.inf)
+                                          for j, (lo, hi) in enumerate(zip(lower, upper))))
+        self.segments = ("w0", "w1")
+
+    def residuals(self, theta):
+        r = self.y - self.A @ np.asarray(theta, float)
+        half = len(r) // 2
+        return [r[:half, None], r[half:, None]]
+
+    def residuals_batch(self, thetas):
+        return [self.residuals(t) for t in np.atleast_2d(thetas)]
+
+
+def _problem(seed, inside=True):
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(40, 4)) @ np.diag([1.0, 3.0, 0.3, 1.0])
+    truth = rng.uniform(0.2, 0.8, 4) if inside else np.array([0.5, 1.4, -0.3, 0.5])
+    y = A @ truth + 0.01 * rng.normal(size=40)
+    return Linear(A, y, np.zeros(4), np.ones(4)), truth
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_refine_reaches_the_least_squares_solution_in_the_box(seed):
+    objective, _ = _problem(seed, inside=seed != 2)
+    exact = lsq_linear(objective.A, objective.y, bounds=(0.0, 1.0))
+    result = refine(objective, np.full(4, 0.5), range(4), [True, True], LeastSquaresConfig(evaluations=20))
+    assert result.error == pytest.approx(2 * exact.cost, rel=1e-3, abs=1e-9)
+    assert np.allclose(result.theta, exact.x, atol=2e-3)
+    assert result.parts.sum() == pytest.approx(result.error)
+    assert (result.theta >= 0).all() and (result.theta <= 1).all()
+
+
+def test_refine_moves_only_the_given_parameters_and_fits_only_the_masked_segments():
+    objective, truth = _problem(5)
+    start = np.full(4, 0.5)
+    result = refine(objective, start, [1, 3], [True, False])
+    assert result.theta[[0, 2]].tolist() == [0.5, 0.5]
+    half = objective.A[:20]
+    exact = lsq_linear(half[:, [1, 3]], objective.y[:20] - half[:, [0, 2]] @ start[[0, 2]], bounds=(0.0, 1.0))
+    assert result.error == pytest.approx(2 * exact.cost, rel=1e-3)
+    assert result.error == pytest.approx(result.parts[0]) and result.error <= result.start_error
+
+
+def test_refine_never_rises_and_steps_away_from_divergence():
+    space = push_space()
+    J, S = generate_push_data([1.2, 0.5], n=8, noise_std=0.001, seed=1)
+    objective = PushError(J, S, space=space, fail_above=1.3, windows=2)
+    # with mu held at 0.2 the best mass is 1.2 sqrt(0.5 / 0.2) = 1.9 kg, but above 1.3 kg the toy "diverges"
+    result = refine(objective, np.array([1.0, 0.2]), [0], [True, True])
+    assert result.error < result.start_error and 1.2 < result.theta[0] <= 1.3
+    held = refine(objective, np.array([1.0, 0.5]), [0], [True, True])
+    assert held.theta[0] == pytest.approx(1.2, rel=0.01)
+
+
+def test_refine_refuses_a_failing_start_and_bad_settings():
+    J, S = generate_push_data([1.0, 0.5], n=6)
+    objective = PushError(J, S, fail_above=1.3)
+    with pytest.raises(BeliefError, match="diverged"):
+        refine(objective, np.array([1.4, 0.5]), [0, 1], [True, True])
+    with pytest.raises(BeliefError, match="mask"):
+        refine(objective, np.array([1.0, 0.5]), [0], [False, False])
+    with pytest.raises(BeliefError, match="evaluations"):
+        LeastSquaresConfig(evaluations=0)
