@@ -160,14 +160,14 @@ def _scores(result: Any, mask: np.ndarray) -> np.ndarray:
 
 
 def fit_effect(objective: Any, theta: np.ndarray, indices: Sequence[int], fit: np.ndarray,
-               config: CriticismConfig = CriticismConfig(), *, refine: bool = True) -> tuple[np.ndarray, np.ndarray]:
+               config: CriticismConfig = CriticismConfig()) -> tuple[np.ndarray, np.ndarray]:
     """Fit the parameters ``indices`` of θ (D,) on the segments ``fit`` (S,) bool, the others held:
-    per parameter a grid over its box (plus its current value), then (``refine``) a finer grid
-    around the best. Returns (θ̂ (D,), parts (S,) at θ̂); parts are inf when every value failed."""
+    per parameter a grid over its box (plus its current value), then a finer grid around the
+    best. Returns (θ̂ (D,), parts (S,) at θ̂); parts are inf when every value failed."""
     theta = np.array(theta, dtype=float)
     lower, upper = objective.space.lower, objective.space.upper
     parts = np.full(len(objective.segments), np.inf)
-    for rnd in (("grid", "refine") if refine else ("grid",)):
+    for rnd in ("grid", "refine"):
         for j in indices:
             step = (upper[j] - lower[j]) / (config.grid - 1)
             if rnd == "grid":

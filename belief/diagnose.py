@@ -6,8 +6,8 @@ One pass on trajectories split into *fit* and *held-out* ones:
    (belief.identify, full-space BO with the honest posterior);
 2. criticize: rank the catalog effects by what they explain of the held-out residual beyond the
    floor (belief.criticism);
-3. if an effect is found: add it, identify again in the extended space (warm-started at θ̃ and the
-   effect's fitted size), and measure the held-out error before (at θ̃, the model re-tuned by
+3. if an effect is found: add it, identify again in the extended space (warm-started at
+   criticism's joint fit of (θ, η)), and measure the held-out error before (at θ̃, the model re-tuned by
    criticism, so the extra search of the second identification is not credited to the effect)
    and after, per trajectory.
 
