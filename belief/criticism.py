@@ -52,7 +52,7 @@ from tqdm.auto import tqdm
 
 from belief import least_squares
 from belief.errors import BeliefError
-from belief.least_squares import LeastSquaresConfig
+from belief.least_squares import LeastSquaresConfig, LocalFit
 from belief.noise import effective_size
 
 __all__ = ["CriticismConfig", "Candidate", "Criticism", "VERDICTS", "criticize", "fit_effect", "polish"]
@@ -211,20 +211,18 @@ def _rescore(c: Candidate, base: tuple[float, float], k: int | None = None) -> C
     return replace(c, explained=explained, evidence=evidence)
 
 
-def _sizes(objective: Any, theta: np.ndarray, fit: np.ndarray, held: np.ndarray) -> tuple[float, float]:
-    """Effective residual counts (K_F, K_H) of ``objective`` at θ on the fit and held-out segments."""
-    residuals = objective.residuals(theta)
+def _sizes(residuals: Sequence[np.ndarray], fit: np.ndarray, held: np.ndarray) -> tuple[float, float]:
+    """Effective residual counts (K_F, K_H) of the residuals (S arrays) on the fit and held-out segments."""
     return (effective_size([r for r, f in zip(residuals, fit) if f]).n_eff,
             effective_size([r for r, h in zip(residuals, held) if h]).n_eff)
 
 
 def polish(objective: Any, theta: np.ndarray, fit: np.ndarray, config: CriticismConfig = CriticismConfig(),
-           indices: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+           indices: Sequence[int] | None = None) -> LocalFit:
     """Re-tune the parameters ``indices`` (default all) on the fit segments by bounded least
-    squares (belief.least_squares; the fit error never rises): θ̃ (D,) and its parts (S,)."""
+    squares (belief.least_squares; the fit error never rises): θ̃ (D,), its parts (S,) and residuals."""
     indices = range(objective.space.dim) if indices is None else indices
-    result = least_squares.refine(objective, np.asarray(theta, float), indices, fit, config.local)
-    return result.theta, result.parts
+    return least_squares.refine(objective, np.asarray(theta, float), indices, fit, config.local)
 
 
 def _screen(objective: Any, theta: np.ndarray, parts: np.ndarray, effect: Any, fit: np.ndarray, held: np.ndarray,
@@ -233,7 +231,8 @@ def _screen(objective: Any, theta: np.ndarray, parts: np.ndarray, effect: Any, f
     extended, start, indices = _effect_theta(objective, theta, effect)
     fitted, eparts = fit_effect(extended, start, indices, fit, config)
     values = {extended.space.names[j]: float(fitted[j]) for j in indices}
-    k_fit, k_held = _sizes(extended, fitted, fit, held) if np.isfinite(eparts).all() else (math.nan, math.nan)
+    k_fit, k_held = (_sizes(extended.residuals(fitted), fit, held) if np.isfinite(eparts).all()
+                     else (math.nan, math.nan))
     c = _candidate(effect.name, "effect", values, eparts, fit, held, (float(parts[fit].sum()), float(parts[held].sum())),
                    k_fit, k_held, len(indices), effect.config())
     return replace(c, theta=tuple(float(v) for v in fitted))
@@ -253,10 +252,11 @@ def _joint(objective: Any, c: Candidate, fit: np.ndarray, held: np.ndarray, base
         return c
     extended = _with(objective, c)
     D = objective.space.dim
-    theta, parts = polish(extended, np.asarray(c.theta), fit, config)
+    result = polish(extended, np.asarray(c.theta), fit, config)
+    theta, parts = result.theta, result.parts
     if not np.isfinite(parts).all():
         return _rescore(c, base)
-    k_fit, k_held = _sizes(extended, theta, fit, held)
+    k_fit, k_held = _sizes(result.residuals, fit, held)
     values = {extended.space.names[j]: float(theta[j]) for j in range(D, extended.space.dim)}
     out = _candidate(c.name, "effect", values, parts, fit, held, base, k_fit, k_held, len(values), c.config)
     return replace(out, stage="joint", theta=tuple(float(v) for v in theta))
@@ -268,10 +268,11 @@ def _pair(objective: Any, a: Candidate, b: Candidate, fit: np.ndarray, held: np.
     explained fraction against ``base`` and each member's evidence given the other (module docstring)."""
     extended = _with(objective, a, b)
     start = np.r_[np.asarray(a.theta, float), np.asarray(b.theta, float)[objective.space.dim:]]
-    theta, parts = polish(extended, start, fit, config)
+    result = polish(extended, start, fit, config)
+    theta, parts = result.theta, result.parts
     if not np.isfinite(parts).all():
         return None
-    k_fit, k_held = _sizes(extended, theta, fit, held)
+    k_fit, k_held = _sizes(result.residuals, fit, held)
     given = {}
     for member, other in ((a, b), (b, a)):
         c = _candidate(member.name, "effect", member.values, parts, fit, held, (other.fit_error, other.held_error),
@@ -333,12 +334,13 @@ def criticize(objective: Any, theta: np.ndarray, *, fit: Sequence[bool], held: S
     effects = [e for e in effects if e.name not in present]
     start = np.asarray(theta, float)
     start_parts = np.asarray(objective.evaluate_parts(start), float)
-    theta, parts = polish(objective, start, fit, config)
-    screened = [_screen(objective, theta, parts, e, fit, held, config)
+    result = polish(objective, start, fit, config)
+    screened = [_screen(objective, result.theta, result.parts, e, fit, held, config)
                 for e in tqdm(effects, desc="effects", leave=False, disable=not progress)]
     if config.joint > 0 and screened:   # a second refinement for the base too, so both get the same search
-        theta, parts = polish(objective, theta, fit, config)
-    n_fit, n_held = _sizes(objective, theta, fit, held)
+        result = polish(objective, result.theta, fit, config)
+    theta, parts = result.theta, result.parts
+    n_fit, n_held = _sizes(result.residuals, fit, held)
     base = (float(parts[fit].sum()), float(parts[held].sum()))
     moved = {n: float(v) for n, v, v0 in zip(objective.space.names, theta, start) if v != v0}
     floor = _candidate("re-tuned model", "floor", moved, parts, fit, held,

@@ -47,13 +47,15 @@ class LeastSquaresConfig:
 @dataclass(frozen=True)
 class LocalFit:
     """theta (D,) the best point evaluated, parts (S,) its per-segment errors Σ r_s², error E_F,
-    start_error E_F at the start, evaluations (trial points plus Jacobian rows)."""
+    start_error E_F at the start, evaluations (trial points plus Jacobian rows), residuals (S
+    arrays (T_s, m)) at theta."""
 
     theta: np.ndarray
     parts: np.ndarray
     error: float
     start_error: float
     evaluations: int
+    residuals: list[np.ndarray]
 
 
 def _flat(residuals: Sequence[np.ndarray], mask: np.ndarray) -> np.ndarray:
@@ -135,4 +137,4 @@ def refine(objective: Any, theta: np.ndarray, indices: Sequence[int], mask: Sequ
     u, residuals = problem.best()
     theta[index] = problem.thetas(u[None])[0, index]
     parts = np.array([np.nansum(np.asarray(r) ** 2) for r in residuals])
-    return LocalFit(theta, parts, float(parts[mask].sum()), start_error, problem.evaluations)
+    return LocalFit(theta, parts, float(parts[mask].sum()), start_error, problem.evaluations, residuals)
