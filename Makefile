@@ -24,7 +24,7 @@ install: $(STAMP)
 DEMO_THETA := rod_length=1.70 pretension=140 damping=210
 demo: $(STAMP)
 	$(BIN)/tensegrid simulate --out out/demo --theta $(DEMO_THETA) --noise 0.001 --seed 1
-	$(BIN)/tensegrid identify out/demo/trajectory.nc --method bo --candidates 4096 --budget 40 \
+	$(BIN)/tensegrid identify out/demo/trajectory.nc --decoder identity --search bo --candidates 4096 --budget 40 \
 		--out out/demo/identify
 
 test: $(STAMP)

@@ -2,12 +2,15 @@
 
 ::
 
-    tensegrid identify DATA.nc [MORE.nc ...] --method {random,bo,rembo} --budget N --out DIR
-    tensegrid identify --toy push --method bo --budget 30 --out DIR
+    tensegrid identify DATA.nc [MORE.nc ...] --decoder {identity,rembo,vae,ae-dyn} --search {bo,random} --budget N --out DIR
+    tensegrid identify --toy push --search bo --budget 30 --out DIR
 
-Methods: ``random`` = random search in the full space (Identity decoder, Sobol candidates),
-``bo`` = BO in the full space (same candidates; a regular grid when D <= 4), ``rembo`` = BO on a
-regular grid over a REMBO embedding of dimension ``--dim``. Several data files make one objective:
+The decoder maps the searched box to θ, the search chooses where to evaluate. ``--decoder
+identity`` searches the full space (Sobol candidates; a regular grid when D <= 4), ``rembo`` a
+regular grid over a REMBO embedding of dimension ``--dim``, and a trained decoder (``vae``,
+``ae-dyn``: ``--decoder-file FILE`` written by ``tensegrid train-embedding``) a regular grid over
+its latent box. ``--search bo`` is Bayesian optimization, ``random`` random search over the same
+cells. Several data files make one objective:
 E(θ) sums the one-step errors of all trajectories, each split into ``--windows`` segments.
 Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` and
 ``marginals.csv``, ``history.csv``, ``error_vs_evaluations.png``, ``posterior_marginals.png``
@@ -35,12 +38,17 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("data", nargs="*", default=[],
                    help="observed trajectories (netCDF, docs/data-format.md); several files make one error E(θ)")
     p.add_argument("--toy", choices=["push"], help="use the 1-D push toy instead of data (no physics engine)")
-    p.add_argument("--method", choices=["random", "bo", "rembo"], default="rembo")
+    p.add_argument("--decoder", choices=["identity", "rembo", "vae", "ae-dyn"], default="identity",
+                   help="map from the searched box to θ (default identity: the full space)")
+    p.add_argument("--decoder-file", default=None,
+                   help="a trained decoder saved by `tensegrid train-embedding` (needed by vae and ae-dyn)")
+    p.add_argument("--search", choices=["bo", "random"], default="bo", help="how cells are chosen (default bo)")
     p.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
     p.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--dim", type=int, default=5, help="REMBO latent dimension (default 5, capped at D)")
-    p.add_argument("--points-per-dim", type=int, default=11, help="grid nodes per latent axis (default 11)")
+    p.add_argument("--points-per-dim", type=int, default=None,
+                   help="grid nodes per latent axis (default 11; 1001 for a 1-D latent)")
     p.add_argument("--candidates", type=int, default=20000, help="Sobol candidates for full-space methods, D > 4")
     p.add_argument("--q", type=int, default=1, help="evaluations per batch (parallel)")
     p.add_argument("--workers", type=int, default=1,
@@ -122,17 +130,29 @@ def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
 
 
 def _search(args: argparse.Namespace, space: Any) -> tuple[Any, Any]:
-    """(decoder, grid) of the method: REMBO on a grid, or the identity on a grid / Sobol candidates."""
+    """(decoder, grid): a regular grid over the decoder's box, or Sobol candidates for the identity when D > 4."""
     from belief.grid import Grid, SobolCandidates
-    from embeddings import REMBO, Identity
+    from embeddings import REMBO, Identity, load_decoder
+    from embeddings.errors import EmbeddingError
 
-    if args.method == "rembo":
+    if args.decoder in ("vae", "ae-dyn"):
+        if not args.decoder_file:
+            raise EmbeddingError(f"--decoder {args.decoder} needs --decoder-file FILE; write one with "
+                                 f"`tensegrid train-embedding {args.decoder} --out FILE`.")
+        decoder = load_decoder(args.decoder_file, space)
+        if decoder.config()["kind"] != args.decoder:
+            raise EmbeddingError(f"{args.decoder_file} holds a {decoder.config()['kind']} decoder, not {args.decoder}; "
+                                 f"pass --decoder {decoder.config()['kind']}.")
+    elif args.decoder_file:
+        raise EmbeddingError(f"--decoder-file is for trained decoders (vae, ae-dyn), not --decoder {args.decoder}.")
+    elif args.decoder == "rembo":
         decoder = REMBO(space, dim=min(args.dim, space.dim), seed=args.seed)
-        return decoder, Grid.for_decoder(decoder, points_per_dim=args.points_per_dim)
-    decoder = Identity(space)
-    grid = (Grid.for_decoder(decoder, points_per_dim=args.points_per_dim) if space.dim <= 4
-            else SobolCandidates.for_decoder(decoder, n=args.candidates, seed=args.seed))
-    return decoder, grid
+    else:
+        decoder = Identity(space)
+    points = args.points_per_dim or (1001 if decoder.dim == 1 else 11)
+    if args.decoder == "identity" and space.dim > 4:
+        return decoder, SobolCandidates.for_decoder(decoder, n=args.candidates, seed=args.seed)
+    return decoder, Grid.for_decoder(decoder, points_per_dim=points)
 
 
 def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> Any:
@@ -150,7 +170,7 @@ def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> A
         warnings.simplefilter("ignore", BudgetWarning)      # the summary prints it
         result = identify(
             objective, decoder, grid, budget=args.budget, time_budget=args.time_budget, seed=args.seed,
-            journal=journal, method="random" if args.method == "random" else "bo", q=args.q, workers=args.workers,
+            journal=journal, method=args.search, q=args.q, workers=args.workers,
             posterior_config=config, progress=not args.no_progress,
         )
     return result
@@ -173,7 +193,7 @@ def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth
                 "status": h["status"].values}
     hist_tab.update({name: h["theta"].values[:, j] for j, name in enumerate(space.names)})
     pd.DataFrame(hist_tab).to_csv(os.path.join(out, "history.csv"), index=False)
-    plot_error_trace(result, os.path.join(out, "error_vs_evaluations.png"), label=f"best so far ({args.method})")
+    plot_error_trace(result, os.path.join(out, "error_vs_evaluations.png"), label=f"best so far ({args.search}, {args.decoder})")
     plot_marginals(result.posterior, decoder.decode(np.asarray(grid.points)), space,
                    os.path.join(out, "posterior_marginals.png"), marginals=result.marginals, truth=truth)
     if result.posterior.ndim == 2 and result.posterior.dims == ("z0", "z1"):

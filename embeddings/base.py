@@ -4,11 +4,15 @@ A decoder has ``space`` (the :class:`~physics.parameters.ParameterSpace`, dimens
 ``dim`` (the latent dimension ``d``), ``bounds`` (``d x 2`` array of the latent box
 ``[lower, upper]`` per latent coordinate) and ``decode(z)`` mapping ``n x d`` latent points to
 ``n x D`` parameter vectors that always lie inside ``[space.lower, space.upper]``. ``config()``
-returns a JSON-able description used to fingerprint an identification problem (journal).
+returns a JSON-able description used to fingerprint an identification problem (journal);
+``save(path)`` writes it as JSON and :func:`embeddings.load_decoder` rebuilds the decoder from it.
 """
 from __future__ import annotations
 
 import abc
+import json
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -67,6 +71,19 @@ class Decoder(abc.ABC):
         u = np.clip(self._decode_unit(np.clip(arr2, lo, hi)), 0.0, 1.0)
         theta = self.space.lower + u * (self.space.upper - self.space.lower)
         return theta[0] if single else theta
+
+    def record(self) -> dict[str, Any]:
+        """What :meth:`save` writes: ``{"decoder": config()}`` (trained decoders add their training state)."""
+        return {"decoder": self.config()}
+
+    def save(self, path: "str | os.PathLike[str]") -> Path:
+        """Write :meth:`record` as JSON (atomically); ``embeddings.load_decoder(path, space)`` reads it back."""
+        out = Path(path)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_suffix(out.suffix + ".tmp")
+        tmp.write_text(json.dumps(self.record()))
+        tmp.replace(out)
+        return out
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.config()})"

@@ -11,18 +11,23 @@ options changed meaning, is refused instead of silently decoding to other θ.
 """
 from __future__ import annotations
 
+import importlib
 import json
+import os
+from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence, TypeVar
 
 from embeddings.base import Decoder
 from embeddings.errors import EmbeddingError
 from physics.parameters import ParameterSpace
 
-__all__ = ["register_decoder", "decoder_from_config", "registered_kinds", "require_keys", "check_config"]
+__all__ = ["register_decoder", "decoder_from_config", "load_decoder", "registered_kinds", "require_keys", "check_config"]
 
 _D = TypeVar("_D", bound=type)
 
 _REGISTRY: dict[str, type[Decoder]] = {}
+#: built-in kinds whose modules import torch: loaded when a configuration names them
+_BUILT_IN = {"vae": "embeddings.vae", "ae-dyn": "embeddings.autoencoder"}
 
 
 def register_decoder(kind: str) -> Callable[[_D], _D]:
@@ -51,7 +56,7 @@ def register_decoder(kind: str) -> Callable[[_D], _D]:
 
 def registered_kinds() -> tuple[str, ...]:
     """The decoder kinds :func:`decoder_from_config` knows, sorted."""
-    return tuple(sorted(_REGISTRY))
+    return tuple(sorted(set(_REGISTRY) | set(_BUILT_IN)))
 
 
 def require_keys(config: Mapping[str, Any], keys: Sequence[str], *, kind: str) -> None:
@@ -103,9 +108,32 @@ def decoder_from_config(config: Mapping[str, Any], space: ParameterSpace) -> Dec
     if not isinstance(space, ParameterSpace):
         raise EmbeddingError(f"decoder_from_config needs a physics ParameterSpace, got {type(space).__name__}.")
     kind = config.get("kind") if isinstance(config, Mapping) else None
+    if kind in _BUILT_IN and kind not in _REGISTRY:
+        importlib.import_module(_BUILT_IN[kind])
     if kind not in _REGISTRY:
         raise EmbeddingError(f"unknown decoder kind {kind!r} in the saved configuration; known kinds: "
                              f"{list(registered_kinds())} (register others with @embeddings.register_decoder).")
     decoder = _REGISTRY[kind].from_config(config, space)
     check_config(decoder, config)
+    return decoder
+
+
+def load_decoder(path: "str | os.PathLike[str]", space: ParameterSpace) -> Decoder:
+    """The decoder saved with ``decoder.save(path)`` (its kind read from the file), on ``space``.
+
+    Raises :class:`EmbeddingError` for a missing or unreadable file, or one written on another
+    parameter space (names or bounds differ).
+    """
+    try:
+        record = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise EmbeddingError(f"no decoder file at {path}; train one with `tensegrid train-embedding`.") from None
+    except (OSError, ValueError) as exc:
+        raise EmbeddingError(f"cannot read the decoder file {path}: {exc}") from None
+    if not isinstance(record, dict) or "decoder" not in record:
+        raise EmbeddingError(f"{path} is not a saved decoder (no 'decoder' entry); write it with decoder.save(path).")
+    decoder = decoder_from_config(record["decoder"], space)
+    restore = getattr(decoder, "restore", None)
+    if callable(restore):
+        restore(record)
     return decoder

@@ -15,11 +15,11 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-@pytest.mark.parametrize("method", ["bo", "rembo", "random"])
-def test_identify_push_toy_writes_everything(tmp_path, method: str, capsys) -> None:
-    out = tmp_path / method
-    args = _parser().parse_args(["identify", "--toy", "push", "--method", method, "--budget", "10", "--out",
-                                 str(out), "--no-progress", "--points-per-dim", "15"])
+@pytest.mark.parametrize("decoder,search", [("identity", "bo"), ("rembo", "bo"), ("identity", "random")])
+def test_identify_push_toy_writes_everything(tmp_path, decoder: str, search: str, capsys) -> None:
+    out = tmp_path / f"{decoder}-{search}"
+    args = _parser().parse_args(["identify", "--toy", "push", "--decoder", decoder, "--search", search, "--budget", "10",
+                                 "--out", str(out), "--no-progress", "--points-per-dim", "15"])
     assert args.func(args) == 0
     for name in ("result.nc", "summary.txt", "marginals.csv", "history.csv", "error_vs_evaluations.png",
                  "posterior_marginals.png", "journal.sqlite"):
@@ -28,7 +28,7 @@ def test_identify_push_toy_writes_everything(tmp_path, method: str, capsys) -> N
     assert res.n_evaluations == 10 and abs(float(res.posterior.sum()) - 1) < 1e-9
     assert (out / "history.csv").read_text().count("\n") == 11
     assert "best error" in capsys.readouterr().out
-    if method == "bo":
+    if decoder == "identity" and search == "bo":
         assert (out / "posterior_2d.png").exists()
     # re-running resumes from the journal: nothing new to evaluate, same history
     assert args.func(args) == 0
@@ -44,8 +44,14 @@ def test_usage_errors(tmp_path, capsys) -> None:
     args = p.parse_args(["identify", "--toy", "push", "--budget", "0", "--out", str(tmp_path), "--no-progress"])
     assert args.func(args) == 2
     assert "budget must be >= 1" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--decoder", "vae", "--out", str(tmp_path), "--no-progress"])
+    assert args.func(args) == 2
+    assert "needs --decoder-file" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--decoder-file", "x.json", "--out", str(tmp_path)])
+    assert args.func(args) == 2
+    assert "for trained decoders" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        p.parse_args(["identify", "--toy", "push", "--method", "vae", "--out", str(tmp_path)])
+        p.parse_args(["identify", "--toy", "push", "--decoder", "pca", "--out", str(tmp_path)])
 
 
 @pytest.mark.slow
@@ -57,7 +63,7 @@ def test_identify_t6_trajectory_file(tmp_path) -> None:
     data = simulate(space.sample(1, seed=3)[0], controller=FlopController(heading=0.0), duration=0.5)
     path = save_trajectory(data, tmp_path / "obs.nc")
     out = tmp_path / "out"
-    args = _parser().parse_args(["identify", str(path), "--method", "rembo", "--dim", "3", "--points-per-dim", "5",
+    args = _parser().parse_args(["identify", str(path), "--decoder", "rembo", "--dim", "3", "--points-per-dim", "5",
                                  "--budget", "6", "--out", str(out), "--no-progress"])
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
@@ -80,7 +86,7 @@ def two_files(tmp_path_factory):
 @pytest.mark.slow
 def test_identify_several_trajectory_files_make_one_objective(tmp_path, two_files, capsys) -> None:
     out = tmp_path / "out"
-    args = _parser().parse_args(["identify", *two_files, "--method", "random", "--budget", "3", "--windows", "2",
+    args = _parser().parse_args(["identify", *two_files, "--search", "random", "--budget", "3", "--windows", "2",
                                  "--out", str(out), "--no-progress"])
     assert args.data == two_files and args.windows == 2
     assert args.func(args) == 0

@@ -35,12 +35,12 @@ def test_config_round_trip_rebuilds_the_same_decoder(make) -> None:
 
 
 def test_identity_and_rembo_are_registered() -> None:
-    assert {"identity", "rembo"} <= set(registered_kinds())
+    assert {"identity", "rembo", "vae", "ae-dyn"} <= set(registered_kinds())
 
 
 def test_unknown_kind_names_the_known_kinds() -> None:
-    with pytest.raises(EmbeddingError, match=r"unknown decoder kind 'vae'.*known kinds: \[.*'identity'.*'rembo'"):
-        decoder_from_config({"kind": "vae"}, SPACE)
+    with pytest.raises(EmbeddingError, match=r"unknown decoder kind 'pca'.*known kinds: \[.*'identity'.*'rembo'.*'vae'"):
+        decoder_from_config({"kind": "pca"}, SPACE)
     with pytest.raises(EmbeddingError, match="unknown decoder kind None"):
         decoder_from_config(["rembo"], SPACE)                      # type: ignore[arg-type]
 
