@@ -28,7 +28,7 @@ demo: $(STAMP)
 		--out out/demo/identify
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q --durations=15
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=20
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/physics_speed.py

@@ -35,7 +35,7 @@ import xarray as xr
 from belief.errors import BeliefError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.posterior import entropy, marginals
-from belief.verdicts import VERDICTS, VerdictConfig
+from belief.verdicts import VERDICTS, VerdictConfig, reach_reason
 from embeddings import Decoder, decoder_from_config
 from physics.parameters import Parameter, ParameterSpace
 
@@ -54,14 +54,20 @@ def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
 
     ratio < 0.5 -> identified, ratio < 0.8 -> weakly identified, else not identified (the default
     :class:`~belief.verdicts.VerdictConfig` thresholds, without its evidence checks). A parameter
-    the decoder does not vary over the cells (prior_std = 0) is not identified.
+    the decoder does not vary over the cells (prior_std = 0), or over less than ``min_reach`` of its
+    box (``reach``, :mod:`belief.verdicts` rule 0), is not identified.
     """
     cfg = VerdictConfig()
     verdicts, reasons = [], []
-    for std, prior in zip(marg["std"].values, marg["prior_std"].values):
+    reach = marg["reach"].values if "reach" in marg else np.ones(marg.sizes["parameter"])
+    for std, prior, spread in zip(marg["std"].values, marg["prior_std"].values, reach):
         if not prior > 0:
             verdicts.append(VERDICTS[2])
             reasons.append("the decoder does not vary it over the cells (prior std 0): P says nothing about it")
+            continue
+        if spread < cfg.min_reach:
+            verdicts.append(VERDICTS[2])
+            reasons.append(reach_reason(float(spread)))
             continue
         r = float(std / prior)
         verdicts.append(VERDICTS[0] if r < cfg.identified_ratio else VERDICTS[1] if r < cfg.weak_ratio else VERDICTS[2])

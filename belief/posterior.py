@@ -280,6 +280,7 @@ def marginals(
     - ``mean`` = sum p θ_j, ``std`` = sqrt(sum p (θ_j - mean)^2);
     - ``lower``/``upper``: the (1-level)/2 and (1+level)/2 quantiles of the weighted distribution;
     - ``map``: θ of the most probable cell; ``prior_mean``/``prior_std``: same under the prior;
+    - ``reach`` = prior_std / ((upper_j - lower_j) / sqrt(12)): how much of the box the decoder spans;
     - ``identified`` = std < identified_ratio x prior_std (a uniform prior's std is width/sqrt(12),
       so with ratio 0.5 the posterior must be at least twice as narrow as the prior).
 
@@ -310,6 +311,7 @@ def marginals(
             "mean": (dims, mean), "std": (dims, std), "lower": (dims, lower), "upper": (dims, upper),
             "map": (dims, th[int(np.argmax(p))]), "prior_mean": (dims, prior_mean),
             "prior_std": (dims, prior_std), "identified": (dims, identified),
+            "reach": (dims, prior_std / np.maximum((space.upper - space.lower) / np.sqrt(12.0), 1e-300)),
         },
         coords=coords,
     )

@@ -21,7 +21,13 @@ parameter j therefore combines four pieces of evidence:
 4. **Evaluated support**: the best evaluated θ_j must lie inside the credible interval of θ_j,
    otherwise P contradicts the evaluations -> at most weakly identified.
 
-Only a parameter that passes all four is *identified*. The budget rule of thumb for a GP in d
+0. **Reach** (checked first): reach_j = prior_std_j / (width_j / √12), the spread of θ_j over the
+   decoded cells relative to a uniform spread over its box. A decoder that varies θ_j over only a
+   sliver of the box (reach < ``min_reach``: a trained decoder's narrow image, a direction the
+   embedding dropped) never tried the other values, so a narrow P there says nothing about the
+   truth -> not identified.
+
+Only a parameter that passes all of them is *identified*. The budget rule of thumb for a GP in d
 dimensions, n >= 10 d evaluations (Loeppky, Sacks & Welch 2009), is reported as a warning with the
 numbers when it is not met.
 """
@@ -35,7 +41,7 @@ import xarray as xr
 
 from belief.errors import BeliefError
 
-__all__ = ["VERDICTS", "VerdictConfig", "loglik_sd", "verified_mass", "segment_conflicts", "decide",
+__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "loglik_sd", "verified_mass", "segment_conflicts", "decide",
            "budget_warning"]
 
 VERDICTS = ("identified", "weakly identified", "not identified")
@@ -50,8 +56,11 @@ class VerdictConfig:
     max_loglik_sd: float = 1.0
     min_verified_mass: float = 0.5
     evaluations_per_dim: int = 10
+    min_reach: float = 0.5
 
     def __post_init__(self) -> None:
+        if not (np.isfinite(self.min_reach) and 0 <= self.min_reach <= 1):
+            raise BeliefError(f"VerdictConfig.min_reach must lie in [0, 1], got {self.min_reach!r}.")
         if not (0 < self.identified_ratio <= self.weak_ratio <= 1):
             raise BeliefError(f"VerdictConfig needs 0 < identified_ratio <= weak_ratio <= 1, got "
                               f"{self.identified_ratio!r} and {self.weak_ratio!r}.")
@@ -61,6 +70,12 @@ class VerdictConfig:
             raise BeliefError(f"VerdictConfig.min_verified_mass must lie in [0, 1], got {self.min_verified_mass!r}.")
         if not isinstance(self.evaluations_per_dim, int) or self.evaluations_per_dim < 0:
             raise BeliefError(f"VerdictConfig.evaluations_per_dim must be an int >= 0, got {self.evaluations_per_dim!r}.")
+
+
+def reach_reason(reach: float) -> str:
+    """Why a parameter the decoder barely varies is not identified (rule 0)."""
+    return (f"the decoder varies it over {reach:.0%} of a uniform spread over its box: values outside its image "
+            f"were never tried, so P cannot place the truth")
 
 
 def loglik_sd(mean: np.ndarray, var: np.ndarray, *, shift: float | None, noise_var: float) -> np.ndarray:
@@ -145,9 +160,12 @@ def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: floa
         raise BeliefError(f"best_theta must have shape ({len(names)},), got {best.shape}.")
     conflicts = conflicts or {}
     verdicts, reasons = [], []
+    reach = marginals["reach"].values if "reach" in marginals else np.ones(len(names))
     for j, name in enumerate(names):
         ratio = float(marginals["std"].values[j] / max(float(marginals["prior_std"].values[j]), 1e-300))
-        if name in conflicts:
+        if reach[j] < cfg.min_reach:
+            v, why = "not identified", reach_reason(float(reach[j]))
+        elif name in conflicts:
             v, why = "not identified", conflicts[name]
         elif ratio >= cfg.weak_ratio:
             v, why = "not identified", f"std is {ratio:.0%} of the prior's: the data barely narrow it"

@@ -3,7 +3,8 @@
 ``Identity`` (no reduction, the unit cube of the space), ``REMBO`` (random linear embedding,
 Wang et al. 2016), and the trained decoders (fit/save/load, weights in their configuration):
 ``VAE`` (trained on θ from the box) and ``DynamicsAutoencoder`` (trained through a learned
-``DynamicsNetwork`` on simulated ``Transitions``, Zhu et al. 2018). ``decoder_from_config``
+``DynamicsNetwork`` on simulated ``Transitions``, Zhu et al. 2018), and ``ActiveSubspace`` (a
+linear embedding along the directions the learned dynamics are most sensitive to). ``decoder_from_config``
 rebuilds a decoder from its saved ``config()`` and ``load_decoder`` from a file written by
 ``decoder.save`` (the registry of kinds, :mod:`embeddings.registry`). embeddings depends on
 physics only (parameter spaces, simulation of training data), never on belief.
@@ -21,7 +22,7 @@ from embeddings.identity import Identity
 from embeddings.rembo import REMBO
 from embeddings.registry import decoder_from_config, load_decoder, register_decoder, registered_kinds
 
-_LAZY = {"VAE": "embeddings.vae", "DynamicsAutoencoder": "embeddings.autoencoder",
+_LAZY = {"VAE": "embeddings.vae", "ActiveSubspace": "embeddings.active", "DynamicsAutoencoder": "embeddings.autoencoder",
          "DynamicsNetwork": "embeddings.dynamics", "Transitions": "embeddings.transitions",
          "push_transitions": "embeddings.transitions", "TrainingConfig": "embeddings.networks",
          "T6DataConfig": "embeddings.t6_data", "t6_transitions": "embeddings.t6_data"}

@@ -27,7 +27,7 @@ _D = TypeVar("_D", bound=type)
 
 _REGISTRY: dict[str, type[Decoder]] = {}
 #: built-in kinds whose modules import torch: loaded when a configuration names them
-_BUILT_IN = {"vae": "embeddings.vae", "ae-dyn": "embeddings.autoencoder"}
+_BUILT_IN = {"vae": "embeddings.vae", "ae-dyn": "embeddings.autoencoder", "active": "embeddings.active"}
 
 
 def register_decoder(kind: str) -> Callable[[_D], _D]:

@@ -83,3 +83,21 @@ def test_verdict_config_is_validated() -> None:
         VerdictConfig(identified_ratio=0.9, weak_ratio=0.5)
     with pytest.raises(BeliefError, match="min_verified_mass"):
         VerdictConfig(min_verified_mass=1.5)
+
+
+def test_a_parameter_the_decoder_barely_varies_is_not_identified() -> None:
+    """Rule 0: a narrow P over a decoder's narrow image says nothing about values it never tried."""
+    m = _marg(mean=[0.5, 0.5], std=[0.01, 0.01], lower=[0.48, 0.48], upper=[0.52, 0.52]).assign(
+        reach=("parameter", [1.0, 0.2]))
+    v, why = decide(m, best_theta=[0.5, 0.5], verified=0.9)
+    assert v == ["identified", "not identified"] and "varies it over 20%" in why[1]
+    with pytest.raises(BeliefError, match="min_reach"):
+        VerdictConfig(min_reach=1.5)
+
+
+def test_marginals_report_the_reach_of_the_decoder() -> None:
+    space = ParameterSpace((Parameter("a", "1", 1.0, 0.5, 2.5, ""), Parameter("b", "1", 1.0, 0.5, 2.5, "")))
+    theta = np.column_stack([np.linspace(0.5, 2.5, 101), np.linspace(0.9, 1.1, 101)])   # b spans 10 % of its box
+    P = xr.DataArray(np.full(101, 1 / 101), dims=("z0",))
+    reach = marginals(P, theta, space)["reach"].values
+    assert abs(reach[0] - 1.0) < 0.05 and abs(reach[1] - 0.1) < 0.01

@@ -1,0 +1,137 @@
+"""Tables and figure of benchmarks/paper.py from its JSON rows (one per problem and method).
+
+* held-out E at the best-so-far θ after n evaluations and after t seconds: mean ± std over problems
+  of log10 E, and the mean rank of each method (1 = lowest held-out error on that problem);
+* parameter error |θ̂ - θ*| / θ* in % of the final best θ, mean ± std over problems (the paper's Table I);
+* the posterior's verdicts (methods that return a belief): parameters flagged identified, how many of
+  them lie within 1 % of the truth (posterior mean), and how often the 90 % interval holds the truth.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def _rows(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _problem(row: dict[str, Any]) -> tuple:
+    return (row["truth_kind"], row["truth_index"], row["noise"], row["seed"])
+
+
+def _at_evaluations(row: dict[str, Any], n: int) -> float:
+    held = row["heldout"]
+    return float(held[min(n, len(held)) - 1]) if held else float("nan")
+
+
+def _at_seconds(row: dict[str, Any], t: float) -> float:
+    done = [k for k, s in enumerate(row["seconds"]) if s <= t]
+    return float(row["heldout"][done[-1]]) if done else float("nan")
+
+
+def _table(rows: list[dict[str, Any]], methods: list[str], points: list[float], at: Any, label: str) -> None:
+    problems = sorted({_problem(r) for r in rows})
+    by = {(m, _problem(r)): r for r in rows for m in [r["method"]]}
+    print(f"\nheld-out E at the best θ so far, by {label}: mean ± std of log10 E over {len(problems)} problems "
+          f"(mean rank, 1 = best)")
+    print("| method | " + " | ".join(f"{p:g}" for p in points) + " |")
+    print("|---|" + "---|" * len(points))
+    ranks = {m: {p: [] for p in points} for m in methods}
+    for p in points:
+        for prob in problems:
+            values = {m: at(by[(m, prob)], p) for m in methods if (m, prob) in by}
+            finite = {m: v for m, v in values.items() if np.isfinite(v)}
+            order = sorted(finite, key=finite.get)
+            for m in methods:
+                if m in finite:
+                    ranks[m][p].append(order.index(m) + 1)
+    for m in methods:
+        cells = []
+        for p in points:
+            logs = np.log10([at(by[(m, prob)], p) for prob in problems if (m, prob) in by])
+            logs = logs[np.isfinite(logs)]
+            cells.append(f"{logs.mean():.2f} ± {logs.std():.2f} ({np.mean(ranks[m][p]):.1f})" if len(logs) else "—")
+        print(f"| {m} | " + " | ".join(cells) + " |")
+
+
+def _parameter_table(rows: list[dict[str, Any]], methods: list[str]) -> None:
+    print("\nparameter error of the final best θ in %, mean ± std over problems")
+    print("| parameter | " + " | ".join(methods) + " |")
+    print("|---|" + "---|" * len(methods))
+    for j, name in enumerate(rows[0]["names"]):
+        cells = []
+        for m in methods:
+            errs = np.array([r["param_error_pct"][j] for r in rows if r["method"] == m])
+            cells.append(f"{errs.mean():.2f} ± {errs.std():.2f}" if len(errs) else "—")
+        print(f"| {name} | " + " | ".join(cells) + " |")
+
+
+def _verdict_table(rows: list[dict[str, Any]], methods: list[str]) -> None:
+    print("\nposterior verdicts (belief methods): flagged identified, of those within 1 % of the truth, "
+          "90 % intervals holding the truth")
+    print("| method | identified | within 1 % | interval holds truth |")
+    print("|---|---|---|---|")
+    for m in methods:
+        sel = [r for r in rows if r["method"] == m and "verdict" in r]
+        if not sel:
+            continue
+        flagged = within = held = total = 0
+        for r in sel:
+            truth, mean = np.array(r["truth"]), np.array(r["mean"])
+            lo, hi = np.array(r["lower"]), np.array(r["upper"])
+            ident = np.array([v == "identified" for v in r["verdict"]])
+            close = np.abs(mean - truth) <= 0.01 * np.abs(truth)
+            flagged, within = flagged + int(ident.sum()), within + int((ident & close).sum())
+            held, total = held + int(((lo <= truth) & (truth <= hi)).sum()), total + len(truth)
+        print(f"| {m} | {flagged} | {within} | {held}/{total} |")
+
+
+def _figure(rows: list[dict[str, Any]], methods: list[str], path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    budget = max(len(r["heldout"]) for r in rows)
+    t_max = max(max(r["seconds"]) for r in rows if r["seconds"])
+    grids = (np.arange(1, budget + 1), np.linspace(t_max / 50, t_max, 50))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for ax, grid, at, xlabel in zip(axes, grids, (_at_evaluations, _at_seconds), ("evaluations", "wall time [s]")):
+        for m in methods:
+            sel = [r for r in rows if r["method"] == m]
+            if not sel:
+                continue
+            logs = np.array([[np.log10(at(r, p)) for p in grid] for r in sel])
+            mean, std = np.nanmean(logs, axis=0), np.nanstd(logs, axis=0)
+            ax.plot(grid, mean, label=m)
+            ax.fill_between(grid, mean - std, mean + std, alpha=0.12)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("log10 held-out E at the best θ so far")
+    axes[0].set_title(f"held-out error, mean ± std over {len({_problem(r) for r in rows})} problems")
+    axes[1].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def summarize(path: Path, *, figure: Path | None = None) -> None:
+    """Print the three tables of the rows in ``path`` and draw the figure to ``figure``."""
+    rows = _rows(path)
+    if not rows:
+        print(f"no rows in {path}")
+        return
+    seen = [r["method"] for r in rows]
+    methods = sorted(set(seen), key=seen.index)
+    budget = max(len(r["heldout"]) for r in rows)
+    points = sorted({p for p in (5, 10, 20, 30, 45, 60, 100) if p <= budget} | {budget})
+    _table(rows, methods, points, _at_evaluations, "evaluations")
+    t_max = max(max(r["seconds"]) for r in rows if r["seconds"])
+    _table(rows, methods, [round(t_max * f, 1) for f in (0.1, 0.25, 0.5, 1.0)], _at_seconds, "seconds")
+    _parameter_table(rows, methods)
+    _verdict_table(rows, methods)
+    if figure is not None:
+        _figure(rows, methods, figure)
+        print(f"\nwrote {figure}")

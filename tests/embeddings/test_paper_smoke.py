@@ -1,0 +1,31 @@
+"""benchmarks/paper.py --smoke: every method and peer runs on a tiny budget and writes its outputs."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.slow
+def test_paper_comparison_smoke(tmp_path) -> None:
+    pytest.importorskip("cma")
+    pytest.importorskip("botorch")
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "paper.py"), "--smoke", "--out", str(tmp_path),
+                           "--cache", str(tmp_path / "cache")], capture_output=True, text=True, env=env, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    rows = [json.loads(line) for line in (tmp_path / "paper.jsonl").read_text().splitlines()]
+    methods = {"random-15", "bo-15", "rembo-5", "vae-5", "ae-dyn-5", "active-5", "cma-es", "botorch"}
+    assert {r["method"] for r in rows} == methods and len(rows) == len(methods)
+    for row in rows:
+        assert len(row["errors"]) == 5 and len(row["heldout"]) == 5 and len(row["param_error_pct"]) == 15
+        assert all(b >= a for a, b in zip(row["seconds"], row["seconds"][1:]))
+    assert sum("verdict" in r for r in rows) == 6                 # the belief methods report verdicts
+    assert "parameter error of the final best" in done.stdout and "held-out E" in done.stdout
+    assert (tmp_path / "paper_heldout.png").stat().st_size > 0
