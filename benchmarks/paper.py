@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from paper_methods import PEERS, Recorder, run_botorch, run_cma, run_identify  # noqa: E402
+from paper_methods import PEERS, Recorder, run_botorch, run_cma  # noqa: E402
 from paper_report import summarize  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -119,8 +119,9 @@ def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, A
 
 
 def _identify(objective: Any, decoder: Any, grid: Any, settings: Settings, seed: int, method: str) -> Any:
-    from belief.identify import identify
     import warnings
+
+    from belief.identify import identify
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

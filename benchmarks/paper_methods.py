@@ -65,14 +65,6 @@ class Run:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-def run_identify(objective: Any, decoder: Any, grid: Any, *, budget: int, seed: int, method: str = "bo") -> Any:
-    from belief.identify import identify
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return identify(objective, decoder, grid, budget=budget, seed=seed, method=method, progress=False)
-
-
 def run_cma(objective: Recorder, space: Any, *, budget: int, seed: int) -> None:
     """CMA-ES in the unit cube until ``budget`` evaluations; a diverged θ costs 10 x the worst E seen."""
     import cma

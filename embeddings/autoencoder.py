@@ -23,7 +23,7 @@ import torch
 
 from embeddings.dynamics import DynamicsNetwork
 from embeddings.errors import EmbeddingError
-from embeddings.networks import TrainingConfig, mlp, pack_weights, train, unpack_weights
+from embeddings.networks import TrainingConfig, mlp, pack_weights, seeded, train, unpack_weights
 from embeddings.registry import register_decoder
 from embeddings.trained import TrainedDecoder
 from embeddings.transitions import Transitions
@@ -52,9 +52,10 @@ class DynamicsAutoencoder(TrainedDecoder):
         self._build(0)
 
     def _build(self, seed: int) -> None:
-        torch.manual_seed(int(seed))
-        self.encoder_net = mlp([self.space.dim, self.hidden, self._dim])
-        self.decoder_net = mlp([self._dim, self.hidden, self.space.dim])
+        """Fresh encoder and decoder with initial weights from ``seed``."""
+        with seeded(seed):
+            self.encoder_net = mlp([self.space.dim, self.hidden, self._dim])
+            self.decoder_net = mlp([self._dim, self.hidden, self.space.dim])
 
     def options(self) -> dict[str, Any]:
         return {"dim": self._dim, "hidden": self.hidden, "margin": self.margin}

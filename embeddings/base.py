@@ -20,7 +20,17 @@ import numpy as np
 from embeddings.errors import EmbeddingError
 from physics.parameters import ParameterSpace
 
-__all__ = ["Decoder"]
+__all__ = ["Decoder", "write_json"]
+
+
+def write_json(path: "str | os.PathLike[str]", record: Any) -> Path:
+    """Write ``record`` as JSON through a temporary file, so a killed write leaves no half file."""
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(out.suffix + ".tmp")
+    tmp.write_text(json.dumps(record))
+    tmp.replace(out)
+    return out
 
 
 class Decoder(abc.ABC):
@@ -78,12 +88,7 @@ class Decoder(abc.ABC):
 
     def save(self, path: "str | os.PathLike[str]") -> Path:
         """Write :meth:`record` as JSON (atomically); ``embeddings.load_decoder(path, space)`` reads it back."""
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_suffix(out.suffix + ".tmp")
-        tmp.write_text(json.dumps(self.record()))
-        tmp.replace(out)
-        return out
+        return write_json(path, self.record())
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.config()})"

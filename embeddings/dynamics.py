@@ -23,8 +23,9 @@ import numpy as np
 import torch
 from torch import nn
 
+from embeddings.base import write_json
 from embeddings.errors import EmbeddingError
-from embeddings.networks import TrainingConfig, mlp, pack_weights, train, unpack_weights
+from embeddings.networks import TrainingConfig, mlp, pack_weights, seeded, train, unpack_weights
 from embeddings.transitions import Transitions
 from physics.parameters import ParameterSpace
 
@@ -85,10 +86,13 @@ class DynamicsNetwork:
         u = torch.as_tensor(data.unit_theta(self.space), dtype=torch.float32)
         x = torch.as_tensor(data.context, dtype=torch.float32)
         y = torch.as_tensor(data.target, dtype=torch.float32)
-        torch.manual_seed(int(training.seed))
-        net = _Net(u.shape[1], x.shape[1], y.shape[1], self.hidden)
-        net.x_mean.copy_(x.mean(0)), net.x_std.copy_(x.std(0).clamp_min(1e-8))
-        net.y_mean.copy_(y.mean(0)), net.y_std.copy_(y.std(0).clamp_min(1e-12))
+        with seeded(training.seed):
+            net = _Net(u.shape[1], x.shape[1], y.shape[1], self.hidden)
+        with torch.no_grad():
+            net.x_mean.copy_(x.mean(0))
+            net.x_std.copy_(x.std(0).clamp_min(1e-8))
+            net.y_mean.copy_(y.mean(0))
+            net.y_std.copy_(y.std(0).clamp_min(1e-12))
         y_std = (y - net.y_mean) / net.y_std
 
         def loss(rows: torch.Tensor, _: torch.Generator) -> torch.Tensor:
@@ -129,10 +133,7 @@ class DynamicsNetwork:
                   "lower": self.space.lower.tolist(), "upper": self.space.upper.tolist(),
                   "context_names": list(self.context_names), "target_names": list(self.target_names),
                   "weights": pack_weights(net), "history": self.history}
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(record))
-        return out
+        return write_json(path, record)
 
     @classmethod
     def load(cls, path: "str | os.PathLike[str]", space: ParameterSpace) -> "DynamicsNetwork":

@@ -10,6 +10,7 @@ All networks here are float32; training runs on the CPU in one thread for repeat
 from __future__ import annotations
 
 import base64
+import contextlib
 import hashlib
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Sequence
@@ -20,7 +21,7 @@ from torch import nn
 
 from embeddings.errors import EmbeddingError
 
-__all__ = ["mlp", "pack_weights", "unpack_weights", "TrainingConfig", "train", "minibatches"]
+__all__ = ["mlp", "seeded", "pack_weights", "unpack_weights", "TrainingConfig", "train", "minibatches"]
 
 _ACTIVATIONS: dict[str, Callable[[], nn.Module]] = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU}
 
@@ -38,6 +39,14 @@ def mlp(sizes: Sequence[int], *, activation: str = "relu", last: bool = False) -
         if last or k < len(sizes) - 2:
             layers.append(_ACTIVATIONS[activation]())
     return nn.Sequential(*layers)
+
+
+@contextlib.contextmanager
+def seeded(seed: int) -> Iterator[None]:
+    """Draw initial weights inside from ``seed``; torch's global random state is restored afterwards."""
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(int(seed))
+        yield
 
 
 def pack_weights(module: nn.Module) -> dict[str, Any]:

@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from embeddings.errors import EmbeddingError
-from embeddings.networks import TrainingConfig, mlp, pack_weights, train, unpack_weights
+from embeddings.networks import TrainingConfig, mlp, pack_weights, seeded, train, unpack_weights
 from embeddings.registry import register_decoder
 from embeddings.trained import TrainedDecoder
 from physics.parameters import ParameterSpace
@@ -48,9 +48,13 @@ class VAE(TrainedDecoder):
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise EmbeddingError(f"VAE {name} must be a positive number, got {value!r}.")
         self.hidden, self.latent_scale, self.recon_scale = int(hidden), float(latent_scale), float(recon_scale)
-        torch.manual_seed(0)     # replaced by fit's seed; keeps an untrained instance reproducible
-        self.encoder_net = mlp([space.dim, self.hidden, 2 * self._dim])
-        self.decoder_net = mlp([self._dim, self.hidden, space.dim])
+        self._build(0)
+
+    def _build(self, seed: int) -> None:
+        """Fresh encoder and decoder with initial weights from ``seed``."""
+        with seeded(seed):
+            self.encoder_net = mlp([self.space.dim, self.hidden, 2 * self._dim])
+            self.decoder_net = mlp([self._dim, self.hidden, self.space.dim])
 
     def options(self) -> dict[str, Any]:
         return {"dim": self._dim, "hidden": self.hidden, "latent_scale": self.latent_scale,
@@ -68,9 +72,7 @@ class VAE(TrainedDecoder):
         training = training or TrainingConfig(epochs=100, batch_size=256, lr=1e-3)
         if not isinstance(n_samples, (int, np.integer)) or n_samples < 2:
             raise EmbeddingError(f"VAE.fit needs n_samples >= 2 parameter draws, got {n_samples!r}.")
-        torch.manual_seed(int(training.seed))
-        self.encoder_net = mlp([self.space.dim, self.hidden, 2 * self._dim])
-        self.decoder_net = mlp([self._dim, self.hidden, self.space.dim])
+        self._build(int(training.seed))
         rng = np.random.default_rng(int(training.seed))
         data = torch.as_tensor(rng.random((int(n_samples), self.space.dim)), dtype=torch.float32)
         params = list(self.encoder_net.parameters()) + list(self.decoder_net.parameters())
