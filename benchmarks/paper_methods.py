@@ -41,6 +41,15 @@ class Recorder:
         self._note(theta, error)
         return error
 
+    def evaluate_parts(self, theta: np.ndarray) -> np.ndarray:
+        try:
+            parts = np.asarray(self.inner.evaluate_parts(theta), dtype=float)
+        except Exception:
+            self._note(theta, np.nan)
+            raise
+        self._note(theta, float(parts.sum()))
+        return parts
+
     def evaluate_batch(self, thetas: np.ndarray, *, on_result: Callable[..., None] | None = None) -> Any:
         arr = np.atleast_2d(np.asarray(thetas, dtype=float))
 
