@@ -8,8 +8,8 @@
 The decoder maps the searched box to θ, the search chooses where to evaluate. ``--decoder
 identity`` searches the full space (Sobol candidates; a regular grid when D <= 4), ``rembo`` a
 regular grid over a REMBO embedding of dimension ``--dim``, and a trained decoder (``vae``,
-``ae-dyn``: ``--decoder-file FILE`` written by ``tensegrid train-embedding``) a regular grid over
-its latent box. ``--search bo`` is Bayesian optimization, ``random`` random search over the same
+``ae-dyn``, ``active``: ``--decoder-file FILE`` written by ``tensegrid train-embedding`` or
+``decoder.save``) a regular grid over its latent box. ``--search bo`` is Bayesian optimization, ``random`` random search over the same
 cells. Several data files make one objective:
 E(θ) sums the one-step errors of all trajectories, each split into ``--windows`` segments.
 Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` and
@@ -38,10 +38,11 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("data", nargs="*", default=[],
                    help="observed trajectories (netCDF, docs/data-format.md); several files make one error E(θ)")
     p.add_argument("--toy", choices=["push"], help="use the 1-D push toy instead of data (no physics engine)")
-    p.add_argument("--decoder", choices=["identity", "rembo", "vae", "ae-dyn"], default="identity",
+    p.add_argument("--decoder", choices=["identity", "rembo", "vae", "ae-dyn", "active"], default="identity",
                    help="map from the searched box to θ (default identity: the full space)")
     p.add_argument("--decoder-file", default=None,
-                   help="a trained decoder saved by `tensegrid train-embedding` (needed by vae and ae-dyn)")
+                   help="a decoder file: `tensegrid train-embedding` writes vae and ae-dyn, "
+                        "ActiveSubspace.save writes active (needed by those three)")
     p.add_argument("--search", choices=["bo", "random"], default="bo", help="how cells are chosen (default bo)")
     p.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
     p.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
@@ -135,16 +136,17 @@ def _search(args: argparse.Namespace, space: Any) -> tuple[Any, Any]:
     from embeddings import REMBO, Identity, load_decoder
     from embeddings.errors import EmbeddingError
 
-    if args.decoder in ("vae", "ae-dyn"):
+    if args.decoder in ("vae", "ae-dyn", "active"):
         if not args.decoder_file:
-            raise EmbeddingError(f"--decoder {args.decoder} needs --decoder-file FILE; write one with "
-                                 f"`tensegrid train-embedding {args.decoder} --out FILE`.")
+            how = ("ActiveSubspace.fit(...).save(FILE)" if args.decoder == "active"
+                   else f"`tensegrid train-embedding {args.decoder} --out FILE`")
+            raise EmbeddingError(f"--decoder {args.decoder} needs --decoder-file FILE; write one with {how}.")
         decoder = load_decoder(args.decoder_file, space)
         if decoder.config()["kind"] != args.decoder:
             raise EmbeddingError(f"{args.decoder_file} holds a {decoder.config()['kind']} decoder, not {args.decoder}; "
                                  f"pass --decoder {decoder.config()['kind']}.")
     elif args.decoder_file:
-        raise EmbeddingError(f"--decoder-file is for trained decoders (vae, ae-dyn), not --decoder {args.decoder}.")
+        raise EmbeddingError(f"--decoder-file is for trained decoders (vae, ae-dyn, active), not --decoder {args.decoder}.")
     elif args.decoder == "rembo":
         decoder = REMBO(space, dim=min(args.dim, space.dim), seed=args.seed)
     else:

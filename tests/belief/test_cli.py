@@ -47,6 +47,9 @@ def test_usage_errors(tmp_path, capsys) -> None:
     args = p.parse_args(["identify", "--toy", "push", "--decoder", "vae", "--out", str(tmp_path), "--no-progress"])
     assert args.func(args) == 2
     assert "needs --decoder-file" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--decoder", "active", "--out", str(tmp_path), "--no-progress"])
+    assert args.func(args) == 2
+    assert "ActiveSubspace.fit(...).save(FILE)" in capsys.readouterr().err
     args = p.parse_args(["identify", "--toy", "push", "--decoder-file", "x.json", "--out", str(tmp_path)])
     assert args.func(args) == 2
     assert "for trained decoders" in capsys.readouterr().err
