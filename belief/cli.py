@@ -142,9 +142,9 @@ def _search(args: argparse.Namespace, space: Any) -> tuple[Any, Any]:
                    else f"`tensegrid train-embedding {args.decoder} --out FILE`")
             raise EmbeddingError(f"--decoder {args.decoder} needs --decoder-file FILE; write one with {how}.")
         decoder = load_decoder(args.decoder_file, space)
-        if decoder.config()["kind"] != args.decoder:
-            raise EmbeddingError(f"{args.decoder_file} holds a {decoder.config()['kind']} decoder, not {args.decoder}; "
-                                 f"pass --decoder {decoder.config()['kind']}.")
+        kind = decoder.config()["kind"]
+        if kind != args.decoder:
+            raise EmbeddingError(f"{args.decoder_file} holds a {kind} decoder, not {args.decoder}; pass --decoder {kind}.")
     elif args.decoder_file:
         raise EmbeddingError(f"--decoder-file is for trained decoders (vae, ae-dyn, active), not --decoder {args.decoder}.")
     elif args.decoder == "rembo":

@@ -85,7 +85,7 @@ def train_decoders(space: Any, settings: Settings, cache: Path) -> dict[str, Any
     if all(p.exists() for p in paths.values()):
         return {name: load_decoder(p, space) for name, p in paths.items()}
     vae = VAE(space, dim=5).fit(settings.vae_samples, training=TrainingConfig(epochs=settings.vae_epochs), progress=True)
-    data = t6_transitions(T6DataConfig(n_trajectories=settings.trajectories, duration=max(settings.duration, 0.4),
+    data = t6_transitions(T6DataConfig(n_trajectories=settings.trajectories, duration=settings.duration,
                                        summary=settings.summary), space=space, cache_dir=cache,
                           workers=settings.workers)
     train, test = data.split(0.2, seed=0)

@@ -35,7 +35,7 @@ def _at_seconds(row: dict[str, Any], t: float) -> float:
 
 def _table(rows: list[dict[str, Any]], methods: list[str], points: list[float], at: Any, label: str) -> None:
     problems = sorted({_problem(r) for r in rows})
-    by = {(m, _problem(r)): r for r in rows for m in [r["method"]]}
+    by = {(r["method"], _problem(r)): r for r in rows}
     print(f"\nheld-out E at the best θ so far, by {label}: mean ± std of log10 E over {len(problems)} problems "
           f"(mean rank, 1 = best)")
     print("| method | " + " | ".join(f"{p:g}" for p in points) + " |")

@@ -82,15 +82,20 @@ class DynamicsAutoencoder(TrainedDecoder):
         x = torch.as_tensor(data.context, dtype=torch.float32)
         y = dynamics.standardize(torch.as_tensor(data.target, dtype=torch.float32))
         net = dynamics.forward_unit
-        for p in dynamics.net.parameters():  # type: ignore[union-attr]
-            p.requires_grad_(False)
+        frozen = [p for p in dynamics.net.parameters() if p.requires_grad]  # type: ignore[union-attr]
 
         def loss(rows: torch.Tensor, _: torch.Generator) -> torch.Tensor:
             u_prime = torch.sigmoid(self.decoder_net(self.encoder_net(u[rows])))
             return ((net(u_prime, x[rows]) - y[rows]) ** 2).mean()
 
         params = list(self.encoder_net.parameters()) + list(self.decoder_net.parameters())
-        self.history = train(params, loss, len(data), training, progress=progress, desc="dynamics autoencoder")
+        for p in frozen:                # the dynamics network stays as it was; only the autoencoder learns
+            p.requires_grad_(False)
+        try:
+            self.history = train(params, loss, len(data), training, progress=progress, desc="dynamics autoencoder")
+        finally:
+            for p in frozen:
+                p.requires_grad_(True)
         alpha = self.encode(np.unique(data.theta, axis=0), check=False)
         lo, hi = alpha.min(axis=0), alpha.max(axis=0)
         if np.any(hi - lo <= 1e-9):

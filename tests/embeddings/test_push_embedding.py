@@ -32,6 +32,7 @@ def test_dynamics_network_beats_the_mean_on_held_out_pushes(trained) -> None:
     score = dynamics.score(test)
     print(f"push dynamics network: held-out MSE {score.mse:.3g} m² vs {score.baseline_mse:.3g} for the mean")
     assert score.ratio < 0.01
+    assert all(p.requires_grad for p in dynamics.net.parameters())     # training the autoencoder left it as it was
 
 
 def test_latent_is_monotone_in_m2mu(trained) -> None:
