@@ -4,12 +4,21 @@ In unit coordinates ``u = (θ - lower) / (upper - lower)``::
 
     encoder   u (D) -> hidden (ReLU) -> α (d)
     decoder   α (d) -> hidden (ReLU) -> sigmoid -> u' (D)
-    loss      mean over rows of || g(u', x) - (y - mean_y) / std_y ||²  / k
+    loss      mean over rows of || g(u', x) - (y - mean_y) / std_y ||²  / k  +  λ s 12 || u' - 1/2 ||² / D
 
 where ``g`` is the frozen :class:`~embeddings.dynamics.DynamicsNetwork` (standardized output), x
 the row's context and y the *simulated* next-state summary at the row's θ. The loss never asks
 for u' = u: the autoencoder only has to keep what changes the dynamics, so d can be much smaller
 than D when the dynamics depend on few combinations of θ (the push toy depends on m²μ alone).
+
+The second term (λ = ``centre_weight``, 0 in the paper) is a weak prior toward the box centre.
+Directions of θ the network cannot see leave the dynamics term flat, and without the prior the
+decoder parks them anywhere, often on the box's faces, where a whole-trajectory error does see
+them. s = ½ mean || g(u_π, x) - g(u, x) ||² / k, with π a random pairing of the rows, is the
+θ-induced variance of the standardized prediction, and 12 || u' - ½ ||² / D is 1 for u' uniform in
+the box; so λ is the prior's weight relative to what θ does to the dynamics, whatever the target's
+scale. With λ well below 1 the seen directions follow the dynamics and the unseen ones decode to
+nominal, as the active subspace's dropped directions do.
 
 The search box is the bounding box of the encoded training θ, widened by ``margin`` of its width
 on each side. Search then runs BO over a grid in that box and decodes with the decoder.
@@ -32,23 +41,28 @@ from physics.parameters import ParameterSpace
 __all__ = ["DynamicsAutoencoder"]
 
 
+
 @register_decoder("ae-dyn")
 class DynamicsAutoencoder(TrainedDecoder):
     """Decoder α -> θ of an autoencoder trained on the dynamics loss (module docstring).
 
     ``dim``: latent d (paper, T6: 5; push toy: 1); ``hidden``: width of the encoder's and the
-    decoder's hidden layer (paper, T6: 10; push toy: 32); ``margin``: widening of the latent box.
+    decoder's hidden layer (paper, T6: 10; push toy: 32); ``margin``: widening of the latent box;
+    ``centre_weight``: λ of the prior toward the box centre (module docstring).
     """
 
     kind = "ae-dyn"
 
-    def __init__(self, space: ParameterSpace, *, dim: int = 5, hidden: int = 10, margin: float = 0.05) -> None:
+    def __init__(self, space: ParameterSpace, *, dim: int = 5, hidden: int = 10, margin: float = 0.05,
+                 centre_weight: float = 0.0) -> None:
         super().__init__(space, dim)
         if not isinstance(hidden, (int, np.integer)) or hidden < 1:
             raise EmbeddingError(f"DynamicsAutoencoder hidden must be a positive integer, got {hidden!r}.")
         if not (isinstance(margin, (int, float)) and np.isfinite(margin) and margin >= 0):
             raise EmbeddingError(f"DynamicsAutoencoder margin must be a number >= 0, got {margin!r}.")
-        self.hidden, self.margin = int(hidden), float(margin)
+        if not (isinstance(centre_weight, (int, float)) and np.isfinite(centre_weight) and centre_weight >= 0):
+            raise EmbeddingError(f"DynamicsAutoencoder centre_weight must be a number >= 0, got {centre_weight!r}.")
+        self.hidden, self.margin, self.centre_weight = int(hidden), float(margin), float(centre_weight)
         self._build(0)
 
     def _build(self, seed: int) -> None:
@@ -58,7 +72,10 @@ class DynamicsAutoencoder(TrainedDecoder):
             self.decoder_net = mlp([self._dim, self.hidden, self.space.dim])
 
     def options(self) -> dict[str, Any]:
-        return {"dim": self._dim, "hidden": self.hidden, "margin": self.margin}
+        options = {"dim": self._dim, "hidden": self.hidden, "margin": self.margin}
+        if self.centre_weight:          # absent when 0, so files of the paper's autoencoder keep their fingerprint
+            options["centre_weight"] = self.centre_weight
+        return options
 
     def extra_state(self) -> dict[str, Any]:
         return {"encoder": pack_weights(self.encoder_net)}
@@ -83,10 +100,12 @@ class DynamicsAutoencoder(TrainedDecoder):
         y = dynamics.standardize(torch.as_tensor(data.target, dtype=torch.float32))
         net = dynamics.forward_unit
         frozen = [p for p in dynamics.net.parameters() if p.requires_grad]  # type: ignore[union-attr]
+        weight = self.centre_weight * 12.0 * dynamics.theta_sensitivity(u, x, seed=training.seed)
 
         def loss(rows: torch.Tensor, _: torch.Generator) -> torch.Tensor:
             u_prime = torch.sigmoid(self.decoder_net(self.encoder_net(u[rows])))
-            return ((net(u_prime, x[rows]) - y[rows]) ** 2).mean()
+            prior = weight * ((u_prime - 0.5) ** 2).mean() if weight else 0.0
+            return ((net(u_prime, x[rows]) - y[rows]) ** 2).mean() + prior
 
         params = list(self.encoder_net.parameters()) + list(self.decoder_net.parameters())
         for p in frozen:                # the dynamics network stays as it was; only the autoencoder learns

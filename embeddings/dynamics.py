@@ -119,6 +119,34 @@ class DynamicsNetwork:
             out = net(u, torch.as_tensor(np.atleast_2d(context), dtype=torch.float32)) * net.y_std + net.y_mean
         return out.numpy().astype(float)
 
+    def theta_sensitivity(self, u: torch.Tensor, x: torch.Tensor, *, seed: int = 0, rows: int = 4096) -> float:
+        """s = ½ mean || g(u_π, x) - g(u, x) ||² / k over up to ``rows`` rows, π a seeded pairing.
+
+        u: unit θ (n, D), x: contexts (n, c). The variance of the standardized prediction that θ
+        alone causes at fixed contexts: what a loss through this network can see of θ.
+        """
+        net = self._require()
+        generator = torch.Generator().manual_seed(int(seed))
+        pick = torch.randperm(len(u), generator=generator)[:rows]
+        other = pick[torch.randperm(len(pick), generator=generator)]
+        with torch.no_grad():
+            return float(0.5 * ((net(u[other], x[pick]) - net(u[pick], x[pick])) ** 2).mean())
+
+    def theta_visibility(self, test: Transitions, *, seed: int = 0) -> tuple[float, float]:
+        """(s, e): θ-induced variance (:meth:`theta_sensitivity`) and held-out error, both standardized.
+
+        e = mean (g(u, x) - (y - mean_y)/std_y)² on ``test``. When s < e the network's own error is
+        larger than anything θ does to its output, and a decoder trained through it cannot
+        resolve θ to better than that.
+        """
+        net = self._require()
+        u = torch.as_tensor(test.unit_theta(self.space), dtype=torch.float32)
+        x = torch.as_tensor(test.context, dtype=torch.float32)
+        y = self.standardize(torch.as_tensor(test.target, dtype=torch.float32))
+        with torch.no_grad():
+            error = float(((net(u, x) - y) ** 2).mean())
+        return self.theta_sensitivity(u, x, seed=seed), error
+
     def score(self, test: Transitions, train_mean: np.ndarray | None = None) -> DynamicsScore:
         """Held-out MSE of the network vs predicting the training targets' mean, averaged over outputs."""
         net = self._require()
