@@ -10,9 +10,11 @@ the score is E on two *held-out* flops with other actuations (30 % change of 4 c
 a flop toward another heading alone is nearly the same motion rotated) at the best θ so far. Every method gets the same number of
 evaluations and is timed, so the held-out error is reported against evaluations and against wall
 time (benchmarks/paper_methods.py lists the methods). Trained decoders (VAE, the dynamics-aware
-autoencoder, the active subspace) are trained once and cached under .cache/tensegrid/paper/.
+autoencoder without and with its centre prior, the active subspace) are trained once and cached
+under .cache/tensegrid/paper/.
 
-Each (problem, method) appends one JSON row to ``--out``/paper.jsonl; ``--summarize`` prints
+Each (problem, method) appends one JSON row to ``--out``/paper.jsonl, and a (problem, method) that
+already has its row there is skipped, so an interrupted run resumes; ``--summarize`` prints
 the tables (held-out error by budget, parameter error in % per parameter, verdicts) and draws
 ``paper_heldout.png`` next to the rows.
 """
@@ -34,7 +36,11 @@ from paper_methods import PEERS, Recorder, run_botorch, run_cma  # noqa: E402
 from paper_report import summarize  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-METHODS = ("random-15", "bo-15", "rembo-5", "vae-5", "ae-dyn-5", "active-5", *PEERS)
+TRAINED = ("vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5")
+METHODS = ("random-15", "bo-15", "rembo-5", *TRAINED, *PEERS)
+#: the Settings fields the trained decoders depend on (the cache key)
+TRAINING_FIELDS = ("duration", "vae_samples", "vae_epochs", "trajectories", "summary", "dyn_epochs", "ae_epochs",
+                   "centre_weight")
 # A flop from the resting face goes over one of its three edges, and the face is 3-fold symmetric,
 # so flops toward any heading are nearly the same motion rotated (one-step E at a θ differs by
 # 1e-5 relative between headings). Held-out flops therefore use other actuations.
@@ -57,6 +63,7 @@ class Settings:
     summary: str = "com"
     dyn_epochs: int = 60
     ae_epochs: int = 60
+    centre_weight: float = 0.1
     workers: int = 2
 
     @classmethod
@@ -74,34 +81,66 @@ def observe(space: Any, truth: np.ndarray, flops: tuple, settings: Settings, noi
             for k, (h, options) in enumerate(flops)]
 
 
-def train_decoders(space: Any, settings: Settings, cache: Path) -> dict[str, Any]:
-    """VAE, dynamics-aware autoencoder and active subspace, 5-D, trained once per ``settings`` and cached."""
-    from embeddings import (ActiveSubspace, DynamicsAutoencoder, DynamicsNetwork, T6DataConfig, TrainingConfig,
-                            VAE, load_decoder, t6_transitions)
+def cache_folder(settings: Settings, cache: Path) -> Path:
+    """``cache/paper/<hash of the settings the trained decoders depend on>``."""
+    trained_by = {k: v for k, v in asdict(settings).items() if k in TRAINING_FIELDS}
+    return cache / "paper" / hashlib.sha256(json.dumps(trained_by, sort_keys=True).encode()).hexdigest()[:12]
 
-    key = hashlib.sha256(json.dumps(asdict(settings), sort_keys=True).encode()).hexdigest()[:12]
-    folder = cache / "paper" / key
-    paths = {name: folder / f"{name}.json" for name in ("vae-5", "ae-dyn-5", "active-5")}
-    if all(p.exists() for p in paths.values()):
-        return {name: load_decoder(p, space) for name, p in paths.items()}
-    vae = VAE(space, dim=5).fit(settings.vae_samples, training=TrainingConfig(epochs=settings.vae_epochs), progress=True)
+
+def train_decoders(space: Any, settings: Settings, cache: Path) -> dict[str, Any]:
+    """The trained 5-D decoders (VAE, the dynamics-aware autoencoder without and with its centre prior,
+    the active subspace), each trained once per ``settings`` and cached under ``cache/paper/<key>/``."""
+    from embeddings import VAE, TrainingConfig, load_decoder
+
+    folder = cache_folder(settings, cache)
+    folder.mkdir(parents=True, exist_ok=True)
+    decoders = {}
+    for name in TRAINED:
+        path = folder / f"{name}.json"
+        if not path.exists():
+            if name == "vae-5":
+                decoder = VAE(space, dim=5).fit(settings.vae_samples, training=TrainingConfig(epochs=settings.vae_epochs),
+                                                progress=True)
+            else:
+                decoder = _dynamics_decoder(name, space, settings, cache, folder)
+            decoder.save(path)
+        decoders[name] = load_decoder(path, space)
+    return decoders
+
+
+def dynamics_network(space: Any, settings: Settings, cache: Path, folder: Path) -> tuple[Any, Any, Any]:
+    """(network, train, test): the T6 transition set split by trajectory and the network trained on it
+    (cached as ``folder/dynamics.json``; its held-out score is printed and kept in dynamics_score.json)."""
+    from embeddings import DynamicsNetwork, T6DataConfig, TrainingConfig, t6_transitions
+
     data = t6_transitions(T6DataConfig(n_trajectories=settings.trajectories, duration=settings.duration,
                                        summary=settings.summary), space=space, cache_dir=cache,
                           workers=settings.workers)
     train, test = data.split(0.2, seed=0)
+    path = folder / "dynamics.json"
+    if path.exists():
+        return DynamicsNetwork.load(path, space), train, test
     dynamics = DynamicsNetwork(space).fit(train, training=TrainingConfig(epochs=settings.dyn_epochs), progress=True)
     score = dynamics.score(test)
     print(f"dynamics network: held-out MSE {score.mse:.3g} vs {score.baseline_mse:.3g} for the mean "
           f"(ratio {score.ratio:.3f}, {len(set(test.group))} held-out trajectories)")
-    ae = DynamicsAutoencoder(space, dim=5).fit(dynamics, train, training=TrainingConfig(
-        epochs=settings.ae_epochs, batch_size=128, lr=3e-3), progress=True)
-    active = ActiveSubspace.fit(space, dynamics, train, dim=5)
-    print(f"{active!r}")
-    decoders = {"vae-5": vae, "ae-dyn-5": ae, "active-5": active}
-    for name, decoder in decoders.items():
-        decoder.save(paths[name])
+    dynamics.save(path)
     (folder / "dynamics_score.json").write_text(json.dumps(asdict(score)))
-    return decoders
+    return dynamics, train, test
+
+
+def _dynamics_decoder(name: str, space: Any, settings: Settings, cache: Path, folder: Path) -> Any:
+    """The decoder ``name`` trained through the (cached) dynamics network."""
+    from embeddings import ActiveSubspace, DynamicsAutoencoder, TrainingConfig
+
+    dynamics, train, _ = dynamics_network(space, settings, cache, folder)
+    if name == "active-5":
+        active = ActiveSubspace.fit(space, dynamics, train, dim=5)
+        print(f"{active!r}")
+        return active
+    weight = settings.centre_weight if name == "ae-dyn-prior-5" else 0.0
+    return DynamicsAutoencoder(space, dim=5, centre_weight=weight).fit(dynamics, train, training=TrainingConfig(
+        epochs=settings.ae_epochs, batch_size=128, lr=3e-3), progress=True)
 
 
 def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, Any], settings: Settings,
@@ -165,10 +204,24 @@ def score(name: str, log: list, result: Any, held_out: Any, truth: np.ndarray, s
     return row
 
 
+def _done(path: Path) -> set[tuple]:
+    """(truth_kind, truth_index, noise, seed, budget, method) of the rows already in ``path``: a run
+    that was interrupted resumes where it stopped."""
+    if not path.exists():
+        return set()
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    return {(r["truth_kind"], r["truth_index"], r["noise"], r["seed"], r["budget"], r["method"]) for r in rows}
+
+
 def run_problem(space: Any, truth: np.ndarray, noise: float, problem: dict[str, Any], methods: list[str],
                 decoders: dict[str, Any], settings: Settings, out: Path, seed: int) -> None:
     from physics import TrajectoryError
 
+    done = _done(out / "paper.jsonl")
+    key = (problem["truth_kind"], problem["truth_index"], noise, seed, settings.budget)
+    methods = [m for m in methods if (*key, m) not in done]
+    if not methods:
+        return
     fit = observe(space, truth, FIT_FLOPS, settings, noise, seed)
     held = observe(space, truth, HELD_OUT_FLOPS, settings, noise, seed + 100)
     with TrajectoryError(fit, loss="squared", windows=3, n_workers=0) as objective, \

@@ -5,11 +5,13 @@ evaluation (θ, E, seconds since the method started) whatever way the method cal
 methods are scored the same way: best-so-far θ after n evaluations or t seconds.
 
 * ``random-15``, ``bo-15``: belief.identify with the Identity decoder on Sobol candidates.
-* ``rembo-5``, ``vae-5``, ``ae-dyn-5``, ``active-5``: belief.identify (BO) on a regular grid over
+* ``rembo-5``, ``vae-5``, ``ae-dyn-5``, ``ae-dyn-prior-5``, ``active-5``: belief.identify (BO) on a regular grid over
   the decoder's 5-D latent box.
 * ``cma-es``: the ``cma`` package in the unit cube (x0 = centre, σ0 = 0.3, default population).
 * ``botorch``: a SingleTaskGP on -log E with qLogEI (q = 1), Sobol initial design of the same
-  size as identify's, acquisition optimized by L-BFGS-B restarts (optimize_acqf).
+  size as identify's, acquisition optimized by L-BFGS-B restarts (optimize_acqf). Torch runs on
+  one thread, as belief.identify's GP does: on this 2-core machine, with a simulation running
+  beside it, two threads made one GP fit 15 times slower.
 """
 from __future__ import annotations
 
@@ -107,6 +109,7 @@ def run_botorch(objective: Recorder, space: Any, *, budget: int, seed: int, n_in
     from scipy.stats import qmc
 
     torch.manual_seed(seed)
+    torch.set_num_threads(1)
     bounds = torch.stack([torch.zeros(space.dim), torch.ones(space.dim)]).double()
     X = list(qmc.Sobol(space.dim, scramble=True, seed=seed).random(n_init))
     Y: list[float] = []
