@@ -1,7 +1,8 @@
 """Tables and figure of benchmarks/paper.py from its JSON rows (one per problem and method).
 
-* held-out E at the best-so-far θ after n evaluations and after t seconds: mean ± std over problems
-  of log10 E, and the mean rank of each method (1 = lowest held-out error on that problem);
+* held-out E at the best-so-far θ after n evaluations and after t seconds, per sensor-noise level:
+  mean ± std over problems of log10 E, and the mean rank of each method (1 = lowest held-out
+  error on that problem);
 * parameter error |θ̂ - θ*| / θ* in % of the final best θ, mean ± std over problems (the paper's Table I);
 * the posterior's verdicts (methods that return a belief): parameters flagged identified, how many of
   them lie within 1 % of the truth (posterior mean), and how often the 90 % interval holds the truth.
@@ -127,9 +128,12 @@ def summarize(path: Path, *, figure: Path | None = None) -> None:
     methods = sorted(set(seen), key=seen.index)
     budget = max(len(r["heldout"]) for r in rows)
     points = sorted({p for p in (5, 10, 20, 30, 45, 60, 100) if p <= budget} | {budget})
-    _table(rows, methods, points, _at_evaluations, "evaluations")
     t_max = max(max(r["seconds"]) for r in rows if r["seconds"])
-    _table(rows, methods, [round(t_max * f, 1) for f in (0.1, 0.25, 0.5, 1.0)], _at_seconds, "seconds")
+    for noise in sorted({r["noise"] for r in rows}):
+        same = [r for r in rows if r["noise"] == noise]
+        print(f"\n## sensor noise {noise:g} m")
+        _table(same, methods, points, _at_evaluations, "evaluations")
+        _table(same, methods, [round(t_max * f, 1) for f in (0.1, 0.25, 0.5, 1.0)], _at_seconds, "seconds")
     _parameter_table(rows, methods)
     _verdict_table(rows, methods)
     if figure is not None:
