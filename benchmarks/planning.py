@@ -1,0 +1,173 @@
+"""Planning benchmark (issue 10): robust vs nominal vs MAP plans, and active vs random vs default probing.
+
+Per seed s: a hidden θ* drawn in the T6's ±10 % box; a belief from a short identification (one
+1.5 s flop at θ* with 1 mm sensor noise, the identity decoder on Sobol candidates, BO with a small
+budget); then
+
+1. Planning: from the robot's resting start, a goal ``--distance`` m away in a seeded direction.
+   Three planners flop the robot at θ* toward it, replanning after each flop, until within
+   ``--radius`` or ``--steps`` flops: the robust plan (CVaR_α of progress under K draws of the
+   belief), the plan at the nominal θ and the plan at the belief's MAP θ. Printed: the rate of
+   runs that reached the goal, the mean number of flops and the mean final distance.
+2. Probing: M cells drawn from the belief are the hypotheses. Active probing (largest expected
+   information gain), random probing (a uniformly drawn candidate) and repeating the default flop
+   (heading 0, change 0.2, 4 cables) each run ``--probes`` experiments on a fresh robot at θ*.
+   After each experiment: the entropy of P on the cells, and the held-out error: the P-weighted
+   one-step error Σ_i w_i E_i on a held-out flop at θ* (another heading and actuation), relative to
+   the best cell's, E_min. Printed: experiments needed to reach entropy <= ``--entropy`` nats and
+   held-out error <= (1 + ``--tolerance``) E_min (runs that never reach count as probes + 1, and
+   the number that reached is shown).
+
+Run::
+
+    .venv/bin/python benchmarks/planning.py --seeds 4            # the modest size of the README
+    .venv/bin/python benchmarks/planning.py --quick              # smoke run (1 seed, tiny)
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from belief import SobolCandidates, identify
+from embeddings import Identity
+from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+from physics.pool import DaskPool
+from planners import FlopAction, PointBelief, SimulatedRobot, plan_to_goal, probe
+from planners.rollouts import warm_up
+
+DEFAULT_FLOP = FlopAction(0.0, 0.2, 4, start=0.2, stop=1.2, duration=1.5)
+
+
+def make_belief(theta: np.ndarray, seed: int, *, candidates: int, budget: int):
+    """A belief from a short identification on one 1.5 s flop at θ (1 mm noise)."""
+    data = simulate(theta, controller=FlopController(float(np.random.default_rng(seed).uniform(0, 2 * np.pi))),
+                    duration=1.5, noise=1e-3, seed=seed)
+    with TrajectoryError(data, loss="squared", n_workers=0) as E:
+        dec = Identity(E.space)
+        res = identify(E, dec, SobolCandidates.for_decoder(dec, n=candidates, seed=seed), budget=budget, seed=seed,
+                       progress=False)
+    return res.belief
+
+
+def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace, pool: DaskPool) -> dict:
+    """reached, flops, final distance of the three planners on one problem."""
+    robot0 = SimulatedRobot(theta)
+    angle = np.random.default_rng(seed + 7).uniform(0, 2 * np.pi)
+    goal = robot0.centre + args.distance * np.array([np.cos(angle), np.sin(angle)])
+    out = {}
+    for name, b in (("robust", belief), ("nominal", PointBelief(belief.space.nominal)), ("MAP", PointBelief(belief.map))):
+        run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=args.level,
+                           objective=args.objective, samples=args.samples, seed=seed, pool=pool, progress=False)
+        out[name] = (run.reached, len(run.steps), run.final_distance)
+        if args.verbose:
+            print(f"  {name}: " + "; ".join(f"{st.choice.action.label} score {st.choice.scores[st.choice.index]:+.2f} "
+                                            f"-> {st.distance:.2f} m" for st in run.steps), flush=True)
+    return out
+
+
+def held_out_errors(theta: np.ndarray, cells: np.ndarray, belief, seed: int) -> np.ndarray:
+    """One-step squared error E_i of every probed cell on a held-out flop at θ* (heading 2.0, change 0.3, 3 cables)."""
+    data = simulate(theta, controller=FlopController(2.0, change=0.3, n_cables=3), duration=1.5, noise=1e-3,
+                    seed=seed + 99)
+    with TrajectoryError(data, loss="squared", n_workers=0) as E:
+        return E.evaluate_batch(belief.theta[cells], parallel=False).errors
+
+
+def _reach(values: list[float], threshold: float, n: int) -> int:
+    """First experiment count k (0..n) with values[k] <= threshold, else n + 1."""
+    hits = [k for k, v in enumerate(values) if v <= threshold]
+    return hits[0] if hits else n + 1
+
+
+def probing_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace, pool: DaskPool) -> dict:
+    """(experiments to the entropy target, experiments to the held-out target) per strategy."""
+    settings = {"active": {"choose": "gain"}, "random": {"choose": "random"},
+                "default flop": {"choose": "gain", "actions": [DEFAULT_FLOP]}}
+    out, E = {}, None
+    for name, kw in settings.items():
+        run = probe(belief, SimulatedRobot(theta, noise=1e-3, seed=seed), steps=args.probes, cells=args.cells,
+                    seed=seed, min_gain=-1.0, pool=pool, progress=False, **kw)
+        if E is None:
+            E = held_out_errors(theta, run.cells, belief, seed)
+        ws = [run.initial_weights] + [s.weights for s in run.steps]
+        ent = [float(-(w[w > 0] * np.log(w[w > 0])).sum()) for w in ws]
+        held = [float(w @ np.nan_to_num(E, nan=np.nanmax(E))) / np.nanmin(E) for w in ws]
+        out[name] = (_reach(ent, args.entropy, args.probes), _reach(held, 1 + args.tolerance, args.probes),
+                     ent[-1], held[-1])
+    return out
+
+
+def _print_tables(plans: list[dict], probes: list[dict], args: argparse.Namespace) -> None:
+    if "plan" in args.parts:
+        _print_plans(plans, args)
+    if "probe" in args.parts:
+        _print_probes(probes, args)
+
+
+def _print_plans(plans: list[dict], args: argparse.Namespace) -> None:
+    n = len(plans)
+    print(f"\nPlanning to a goal {args.distance:g} m away (radius {args.radius:g} m, at most {args.steps} flops, "
+          f"K = {args.samples} draws, robust objective {args.objective}, α = {args.level:g}), {n} seeds")
+    print(f"{'planner':<10}{'reached':>10}{'rate':>7}{'mean flops':>12}{'mean final distance [m]':>26}")
+    for name in ("robust", "nominal", "MAP"):
+        r = [p[name] for p in plans]
+        print(f"{name:<10}{sum(x[0] for x in r):>7}/{n:<2}{np.mean([x[0] for x in r]):>7.2f}"
+              f"{np.mean([x[1] for x in r]):>12.2f}{np.mean([x[2] for x in r]):>26.2f}")
+
+
+def _print_probes(probes: list[dict], args: argparse.Namespace) -> None:
+    n = len(probes)
+    print(f"\nProbing: M = {args.cells} cells drawn from P, at most {args.probes} experiments; targets: entropy <= "
+          f"{args.entropy:g} nats, held-out error <= {1 + args.tolerance:g} x the best cell's ({args.probes + 1} = "
+          f"not reached)")
+    print(f"{'strategy':<14}{'to entropy (mean, reached)':>28}{'to held-out (mean, reached)':>30}"
+          f"{'final entropy':>15}{'final held-out':>16}")
+    for name in ("active", "random", "default flop"):
+        r = [p[name] for p in probes]
+        print(f"{name:<14}{np.mean([x[0] for x in r]):>20.2f}  {sum(x[0] <= args.probes for x in r):>2}/{n:<3}"
+              f"{np.mean([x[1] for x in r]):>22.2f}  {sum(x[1] <= args.probes for x in r):>2}/{n:<3}"
+              f"{np.mean([x[2] for x in r]):>15.2f}{np.mean([x[3] for x in r]):>16.3f}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seeds", type=int, default=4)
+    p.add_argument("--quick", action="store_true", help="1 seed, tiny sizes (smoke run)")
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--distance", type=float, default=2.0)
+    p.add_argument("--radius", type=float, default=0.5)
+    p.add_argument("--steps", type=int, default=6)
+    p.add_argument("--samples", type=int, default=8)
+    p.add_argument("--level", type=float, default=0.2)
+    p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
+    p.add_argument("--cells", type=int, default=12)
+    p.add_argument("--probes", type=int, default=4)
+    p.add_argument("--entropy", type=float, default=0.5)
+    p.add_argument("--tolerance", type=float, default=0.1)
+    p.add_argument("--candidates", type=int, default=1024)
+    p.add_argument("--budget", type=int, default=20)
+    p.add_argument("--verbose", action="store_true", help="print every flop of every plan")
+    p.add_argument("--parts", nargs="+", choices=["plan", "probe"], default=["plan", "probe"],
+                   help="which tables to compute (default both)")
+    args = p.parse_args(argv)
+    if args.quick:
+        args.seeds, args.steps, args.samples, args.cells, args.probes = 1, 2, 2, 4, 1
+        args.candidates, args.budget, args.distance = 256, 8, 1.0
+    space, plans, probes = ParameterSpace.t6(), [], []
+    t0 = time.perf_counter()
+    with DaskPool(n_workers=args.workers, warm_up=warm_up) as pool:
+        for s in range(args.seeds):
+            theta = space.sample(1, seed=1000 + s)[0]
+            belief = make_belief(theta, s, candidates=args.candidates, budget=args.budget)
+            plans.append(planning_runs(belief, theta, s, args, pool) if "plan" in args.parts else {})
+            probes.append(probing_runs(belief, theta, s, args, pool) if "probe" in args.parts else {})
+            print(f"seed {s}: plans {plans[-1]}\n        probes {probes[-1]}  ({time.perf_counter() - t0:.0f} s)",
+                  flush=True)
+    _print_tables(plans, probes, args)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
