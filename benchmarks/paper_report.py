@@ -92,6 +92,7 @@ def _verdict_table(rows: list[dict[str, Any]], methods: list[str]) -> None:
 
 
 def _figure(rows: list[dict[str, Any]], methods: list[str], path: Path) -> None:
+    """Held-out error against evaluations and wall time, one row of panels per sensor-noise level."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -99,22 +100,27 @@ def _figure(rows: list[dict[str, Any]], methods: list[str], path: Path) -> None:
     budget = max(len(r["heldout"]) for r in rows)
     t_max = max(max(r["seconds"]) for r in rows if r["seconds"])
     grids = (np.arange(1, budget + 1), np.linspace(t_max / 50, t_max, 50))
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    for ax, grid, at, xlabel in zip(axes, grids, (_at_evaluations, _at_seconds), ("evaluations", "wall time [s]")):
-        for m in methods:
-            sel = [r for r in rows if r["method"] == m]
-            if not sel:
-                continue
-            logs = np.array([[np.log10(at(r, p)) for p in grid] for r in sel])
-            mean, std = np.nanmean(logs, axis=0), np.nanstd(logs, axis=0)
-            ax.plot(grid, mean, label=m)
-            ax.fill_between(grid, mean - std, mean + std, alpha=0.12)
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel("log10 held-out E at the best θ so far")
-    axes[0].set_title(f"held-out error, mean ± std over {len({_problem(r) for r in rows})} problems")
-    axes[1].legend(fontsize=8)
+    noises = sorted({r["noise"] for r in rows})
+    fig, axes = plt.subplots(len(noises), 2, figsize=(11, 3.8 * len(noises)), squeeze=False)
+    for row_axes, noise in zip(axes, noises):
+        same = [r for r in rows if r["noise"] == noise]
+        for ax, grid, at, xlabel in zip(row_axes, grids, (_at_evaluations, _at_seconds),
+                                        ("evaluations", "wall time [s]")):
+            for m in methods:
+                sel = [r for r in same if r["method"] == m]
+                if not sel:
+                    continue
+                logs = np.array([[np.log10(at(r, p)) for p in grid] for r in sel])
+                mean, std = np.nanmean(logs, axis=0), np.nanstd(logs, axis=0)
+                ax.plot(grid, mean, label=m)
+                ax.fill_between(grid, mean - std, mean + std, alpha=0.08)
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel("log10 held-out E, best θ so far")
+        row_axes[0].set_title(f"sensor noise {noise * 1000:g} mm: mean ± std over "
+                              f"{len({_problem(r) for r in same})} problems")
+    axes[0][1].legend(fontsize=8, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
