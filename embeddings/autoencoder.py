@@ -41,7 +41,6 @@ from physics.parameters import ParameterSpace
 __all__ = ["DynamicsAutoencoder"]
 
 
-
 @register_decoder("ae-dyn")
 class DynamicsAutoencoder(TrainedDecoder):
     """Decoder α -> θ of an autoencoder trained on the dynamics loss (module docstring).
