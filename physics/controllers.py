@@ -23,7 +23,7 @@ import numpy as np
 from physics.errors import ControllerError
 from physics.geometry import N_CABLES
 
-__all__ = ["Controller", "HoldController", "ReplayController", "FlopController", "FlopPlan"]
+__all__ = ["Controller", "HoldController", "ReplayController", "FlopController", "FlopPlan", "select_cables"]
 
 
 @runtime_checkable
@@ -73,6 +73,15 @@ class FlopPlan:
     base: tuple[int, int, int]
     effect_shorten: np.ndarray = field(repr=False)
     effect_lengthen: np.ndarray = field(repr=False)
+
+
+def select_cables(plan: FlopPlan, n: int) -> FlopPlan:
+    """``plan`` with its cables chosen from its trial effects: shorten the n cables whose shortening
+    moves the centre of mass most along the direction, lengthen the n others whose lengthening does.
+    The trials do not depend on n, so one set of trials serves every n."""
+    shorten = tuple(int(j) for j in np.argsort(-plan.effect_shorten)[:n])
+    lengthen = tuple([int(j) for j in np.argsort(-plan.effect_lengthen) if j not in shorten][:n])
+    return FlopPlan(shorten, lengthen, plan.direction, plan.base, plan.effect_shorten, plan.effect_lengthen)
 
 
 class FlopController:
@@ -148,11 +157,7 @@ class FlopController:
 
         short = np.array([trial(j, 1 - self.change) for j in range(N_CABLES)])
         longer = np.array([trial(j, 1 + self.change) for j in range(N_CABLES)])
-        order_s = [int(j) for j in np.argsort(-short)]
-        shorten = tuple(order_s[: self.n_cables])
-        order_l = [int(j) for j in np.argsort(-longer) if j not in shorten]
-        lengthen = tuple(order_l[: self.n_cables])
-        return FlopPlan(shorten, lengthen, np.r_[direction, 0.0], base, short, longer)
+        return select_cables(FlopPlan((), (), np.r_[direction, 0.0], base, short, longer), self.n_cables)
 
     # ------------------------------------------------------------------ protocol
     def reset(self, model) -> None:

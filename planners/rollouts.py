@@ -26,7 +26,7 @@ from typing import Any, Sequence
 import numpy as np
 from tqdm.auto import tqdm
 
-from physics.controllers import FlopController, FlopPlan
+from physics.controllers import FlopController, FlopPlan, select_cables
 from physics.errors import PhysicsError
 from physics.geometry import rod_poses_from_nodes
 from physics.parameters import ParameterSpace
@@ -36,7 +36,7 @@ from physics.tensegrity import RobotState, T6Model
 from planners.actions import FlopAction
 from planners.errors import ActionError, EmptyBeliefError, PlannerError, RobotMismatchError
 
-__all__ = ["RobotStart", "Outcome", "RolloutSet", "check_belief", "place", "plan_cables", "with_n_cables", "plan_all",
+__all__ = ["RobotStart", "Outcome", "RolloutSet", "check_belief", "place", "plan_cables", "plan_all",
            "run_flop", "rollouts", "sample_rollouts", "pool_for", "warm_up"]
 
 _SAMPLE_RATE = 100.0     # controller rate [Hz], as physics.simulate
@@ -135,24 +135,13 @@ def plan_cables(action: FlopAction, start: RobotStart) -> FlopPlan:
     return action.controller().plan(place(None, start))
 
 
-def with_n_cables(plan: FlopPlan, n: int) -> FlopPlan:
-    """``plan`` re-selected for ``n`` cables from its trial effects, by the rule of
-    :meth:`FlopController.plan`: shorten the n cables whose shortening moves the centre of mass
-    most along the direction, lengthen the n others whose lengthening does. The trials do not
-    depend on n, so one plan per (heading, change) serves every n."""
-    order_s = [int(j) for j in np.argsort(-plan.effect_shorten)]
-    shorten = tuple(order_s[:n])
-    lengthen = tuple([int(j) for j in np.argsort(-plan.effect_lengthen) if j not in shorten][:n])
-    return FlopPlan(shorten, lengthen, plan.direction, plan.base, plan.effect_shorten, plan.effect_lengthen)
-
-
 def plan_all(actions: Sequence[FlopAction], start: RobotStart, pool: DaskPool) -> tuple[FlopPlan, ...]:
     """:func:`plan_cables` of every action, with one trial set per distinct (heading, change) on ``pool``."""
     keys = [(a.heading, a.change) for a in actions]
     distinct = list(dict.fromkeys(keys))
     firsts = [actions[keys.index(k)] for k in distinct]
     base = dict(zip(distinct, pool.map_rows(_plan_row, start, firsts)))
-    return tuple(with_n_cables(base[k], a.n_cables) for k, a in zip(keys, actions))
+    return tuple(select_cables(base[k], a.n_cables) for k, a in zip(keys, actions))
 
 
 def _rest(model: T6Model, speed: float, limit: float) -> None:

@@ -6,7 +6,8 @@ import pytest
 
 from physics.controllers import FlopController
 from planners import ActionError, FlopAction, RobotStart, candidate_actions, face_headings
-from planners.rollouts import place, plan_cables, with_n_cables
+from physics.controllers import select_cables
+from planners.rollouts import place, plan_cables
 
 
 @pytest.mark.parametrize("kw, match", [({"change": 0.6}, "change must be"), ({"n_cables": 0}, "n_cables"),
@@ -45,7 +46,7 @@ def test_face_headings_and_plan_reselection() -> None:
     # the controller tips the robot across the edge a heading points at: all three edges differ
     p4 = plan_cables(FlopAction(h[0], 0.2, 4), start)
     p2 = plan_cables(FlopAction(h[0], 0.2, 2), start)
-    again = with_n_cables(p4, 2)
+    again = select_cables(p4, 2)
     assert again.shorten == p2.shorten and again.lengthen == p2.lengthen
     assert len(set(p4.shorten) & set(p4.lengthen)) == 0
     model = place(None, start)
