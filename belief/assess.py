@@ -9,6 +9,9 @@
     4  one posterior per segment of E (time windows, trajectories) from a GP fitted to that
        segment's errors, with that segment's own σ²; disjoint narrow intervals = conflict
     5  marginals of P and a verdict per parameter (belief.verdicts.decide)
+    6  if any parameter is (weakly) identified: one Gauss-Newton step of all parameters from the
+       best evaluated θ (D + 4 evaluations); a significantly better fit outside a parameter's
+       interval makes it not identified (belief.verdicts rule 5)
 
 Objectives without ``residuals`` fall back to the "iid" rule; objectives without segments skip
 step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff and the budget warning.
@@ -23,10 +26,12 @@ import numpy as np
 
 from belief.belief import Belief
 from belief.errors import BeliefError, BudgetWarning
+from belief.least_squares import gauss_newton_step
 from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate, SurrogateConfig
-from belief.verdicts import VerdictConfig, budget_warning, decide, loglik_sd, segment_conflicts, verified_mass
+from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, refit_conflicts, segment_conflicts,
+                             verified_mass)
 from physics.errors import PhysicsError
 
 __all__ = ["NoiseLevel", "noise_level", "assess"]
@@ -95,6 +100,31 @@ def _segment_marginals(records: Sequence[Any], grid: Any, theta_cells: np.ndarra
     return out
 
 
+def _local_fit(objective: Any, best_theta: np.ndarray, marg: Any, noise: NoiseLevel,
+               cfg: VerdictConfig) -> tuple[dict[str, str], np.ndarray | None, dict[str, Any]]:
+    """(conflicts, local ratio (D,) or None, info) of rule 5 (belief.verdicts) from one Gauss-Newton
+    step of all parameters from the best evaluated θ.
+
+    ``info`` goes to the Belief's attrs["local_fit"]: θ′, E(θ′), E(θ̂), evaluations and the local
+    std, or why the step was not taken (a diverged simulation is reported there, not hidden).
+    """
+    if not (hasattr(objective, "residuals_batch") and getattr(objective, "segments", None)):
+        return {}, None, {"skipped": "the objective gives no residuals"}
+    try:
+        step = gauss_newton_step(objective, np.asarray(best_theta, dtype=float))
+    except (BeliefError, PhysicsError) as exc:
+        return {}, None, {"skipped": str(exc)}
+    info: dict[str, Any] = {"theta": [float(v) for v in step.theta], "error": step.error,
+                            "start_error": step.start_error, "evaluations": step.evaluations}
+    ratio = None
+    if noise.total is not None:
+        std = step.laplace_std(noise.total)
+        info["std"] = [float(v) for v in std]
+        ratio = std / np.maximum(step.width / np.sqrt(12.0), 1e-300)
+    return refit_conflicts(marg, step.theta, step.error, step.start_error, noise_var=noise.total,
+                           nats=cfg.refit_nats), ratio, info
+
+
 def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], model: GPSurrogate, *,
            config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
            verdict_config: VerdictConfig | None = None) -> Belief:
@@ -133,11 +163,16 @@ def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], mode
         conflicts = segment_conflicts(seg, identified_ratio=vcfg.identified_ratio)
     marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts=conflicts, config=vcfg)
+    local: dict[str, Any] = {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"}
+    if vcfg.refit and any(v != "not identified" for v in verdicts):
+        extra, ratio, local = _local_fit(objective, best.theta, marg, noise, vcfg)
+        verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts={**extra, **conflicts},
+                                   config=vcfg, local_ratio=ratio)
     warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim)
     if warn:
         warnings.warn(warn, BudgetWarning, stacklevel=3)
     attrs = {"mode": config.mode, "level": config.level, "noise_var": noise.total, "noise_rule": noise.rule,
              "noise": noise.info, "segments": list(segments), "verified_mass": vmass, "n_evaluations": len(records),
-             "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn}
+             "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn, "local_fit": local}
     return Belief(P, theta_cells, space, decoder_config=decoder.config(), grid_config=grid.config(),
                   verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level, grid=grid)

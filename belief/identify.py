@@ -60,6 +60,7 @@ from belief.posterior import PosteriorConfig, posterior_from_surrogate
 from belief.proposers import BOProposer, Proposer, RandomProposer, fit_surrogate
 from belief.result import IdentificationResult, history_dataset
 from belief.surrogate import SurrogateConfig
+from belief.verdicts import VerdictConfig
 
 __all__ = ["identify", "problem_fingerprint"]
 
@@ -211,6 +212,7 @@ def identify(
     space: Any = None,
     surrogate: SurrogateConfig | None = None,
     posterior_config: PosteriorConfig | None = None,
+    verdict_config: VerdictConfig | None = None,
     workers: int = 1,
     impute_failed: bool = False,
     progress: bool = True,
@@ -226,7 +228,8 @@ def identify(
     resumed if it exists; ``method``: built-in proposer, or ``proposer=`` any belief.proposers.Proposer;
     ``q``: cells per batch; ``n_init``: initial design size (default max(5, d + 1)); ``posterior``:
     mode of P, or None to skip it; ``noise_var``: σ² of the likelihood mode (default: the
-    objective's, else ``posterior_config.noise_rule``); ``callback(n_evaluations, P)``: called
+    objective's, else ``posterior_config.noise_rule``); ``verdict_config``: thresholds of the
+    verdicts (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check); ``callback(n_evaluations, P)``: called
     before every batch with a fitted surrogate (one extra pass over the grid per batch).
     """
     space = _validate_problem(objective, decoder, grid, space)
@@ -248,13 +251,13 @@ def identify(
         if jr is not None:
             jr.close()
     return _result(objective, decoder, grid, out, space=space, config=fp, pcfg=pcfg if posterior else None,
-                   scfg=scfg, impute_failed=impute_failed, seed=seed,
+                   scfg=scfg, impute_failed=impute_failed, seed=seed, vcfg=verdict_config,
                    extra={"budget": budget, "time_budget": time_budget})
 
 
 def _result(objective: Any, decoder: Any, grid: Any, out: Any, *, space: Any, config: dict[str, Any],
             pcfg: PosteriorConfig | None, scfg: SurrogateConfig, impute_failed: bool, seed: int,
-            extra: dict[str, Any]) -> IdentificationResult:
+            extra: dict[str, Any], vcfg: VerdictConfig | None = None) -> IdentificationResult:
     """The IdentificationResult of the driver's records: best θ, history and (with ``pcfg``) the Belief."""
     records = out.records
     ok = [r for r in records if r.status == "ok"]
@@ -273,7 +276,8 @@ def _result(objective: Any, decoder: Any, grid: Any, out: Any, *, space: Any, co
         model = fit_surrogate(records, grid, scfg, impute_failed=impute_failed)
         if model is None:
             raise ObjectiveError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
-        belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=seed)
+        belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=seed,
+                        verdict_config=vcfg)
     segments = tuple(getattr(objective, "segments", ()) or ()) or ("all",)
     hist = history_dataset(records, latent_names=tuple(f"z{i}" for i in range(grid.dim)), space=space,
                            segments=segments)

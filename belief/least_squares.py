@@ -25,7 +25,7 @@ from scipy.optimize import least_squares as scipy_least_squares
 
 from belief.errors import BeliefError
 
-__all__ = ["LeastSquaresConfig", "LocalFit", "refine"]
+__all__ = ["LeastSquaresConfig", "LocalFit", "refine", "StepConfig", "LocalStep", "gauss_newton_step"]
 
 
 @dataclass(frozen=True)
@@ -138,3 +138,76 @@ def refine(objective: Any, theta: np.ndarray, indices: Sequence[int], mask: Sequ
     theta[index] = problem.thetas(u[None])[0, index]
     parts = np.array([np.nansum(np.asarray(r) ** 2) for r in residuals])
     return LocalFit(theta, parts, float(parts[mask].sum()), start_error, problem.evaluations, residuals)
+
+
+
+@dataclass(frozen=True)
+class StepConfig:
+    """One damped Gauss-Newton step of all D parameters: trust radius (unit box) of the step,
+    the step lengths tried (one batch), the finite-difference step h, the ridge λ relative to
+    mean diag(JᵀJ)."""
+
+    radius: float = 0.25
+    lengths: tuple[float, ...] = (1.0, 0.5, 0.25)
+    step: float = 0.01
+    ridge: float = 1e-6
+
+    def __post_init__(self) -> None:
+        if not (0 < self.radius <= 1) or not self.lengths or not all(0 < a <= 1 for a in self.lengths) \
+                or not (0 < self.step < 0.5) or not (self.ridge >= 0):
+            raise BeliefError(f"StepConfig needs 0 < radius <= 1, step lengths in (0, 1], 0 < step < 0.5 and "
+                              f"ridge >= 0, got {self.radius}, {self.lengths}, {self.step}, {self.ridge}.")
+
+
+@dataclass(frozen=True)
+class LocalStep:
+    """theta (D,) the best point of the step, error E there, start_error E at the start,
+    evaluations spent, jacobian J (K, D) of the residuals in the unit box at the start, width (D,)
+    the box widths (θ = lower + width u)."""
+
+    theta: np.ndarray
+    error: float
+    start_error: float
+    evaluations: int
+    jacobian: np.ndarray
+    width: np.ndarray
+
+    def laplace_std(self, noise_var: float) -> np.ndarray:
+        """Local posterior std of θ (D,) over all parameters: sqrt diag (JᵀJ/σ² + τ I)⁻¹ x width.
+
+        JᵀJ/σ² is the Gauss-Newton Hessian of E/(2σ²) in the unit box. τ = 1e-9 x its mean
+        diagonal only keeps the inverse finite: a direction the data do not see (a column of J
+        that others reproduce, such as m and μ of S = J²/(2 m² μ)) gets a std far beyond the box,
+        not the width a prior would lend it.
+        """
+        F = self.jacobian.T @ self.jacobian / float(noise_var)
+        tau = 1e-9 * max(float(np.mean(np.diag(F))), 1e-300)
+        cov = np.linalg.inv(F + tau * np.eye(F.shape[0]))
+        return np.sqrt(np.clip(np.diag(cov), 0.0, None)) * self.width
+
+
+def gauss_newton_step(objective: Any, theta: np.ndarray, config: StepConfig = StepConfig()) -> LocalStep:
+    """One damped Gauss-Newton step from θ (D,) over all parameters and segments.
+
+    With r, J at u (unit box; J by forward differences, one batch of D evaluations), the step is
+    Δ = argmin ||r + JΔ||² + λ||Δ||² subject to the box and |Δ_j| <= radius (scipy's lsq_linear);
+    the trial points u + aΔ for a in ``lengths`` are evaluated in one more batch. Costs D + 1 +
+    len(lengths) evaluations. The result's theta is the best point evaluated (the start if no
+    trial lowers E). Raises BeliefError if the simulation at θ fails.
+    """
+    from scipy.optimize import lsq_linear
+
+    theta = np.asarray(theta, float).copy()
+    problem = _Problem(objective, theta, list(range(theta.size)), np.ones(len(objective.segments), bool), config.step)
+    u = np.clip(problem.unit(theta), 0.0, 1.0)
+    r, J = problem.fun(u), problem.jac(u)
+    lam = config.ridge * max(float(np.mean(np.sum(J * J, axis=0))), 1e-300)
+    A = np.vstack([J, np.sqrt(lam) * np.eye(u.size)])
+    b = np.concatenate([-r, np.zeros(u.size)])
+    lower, upper = np.maximum(-u, -config.radius), np.minimum(1.0 - u, config.radius)
+    delta = lsq_linear(A, b, bounds=(lower, upper + 1e-15)).x
+    problem.evaluate(np.clip(u[None] + np.asarray(config.lengths)[:, None] * delta[None], 0.0, 1.0))
+    best_u, residuals = problem.best()
+    error = float(sum(np.nansum(np.asarray(res) ** 2) for res in residuals))
+    return LocalStep(problem.thetas(best_u[None])[0], error, float((r ** 2).sum()), problem.evaluations, J,
+                     problem.width.copy())

@@ -27,6 +27,20 @@ parameter j therefore combines four pieces of evidence:
    embedding dropped) never tried the other values, so a narrow P there says nothing about the
    truth -> not identified.
 
+5. **Local fit over all D parameters** (when the objective gives residuals): r and its Jacobian
+   J at the best evaluated θ̂, and one damped Gauss-Newton step to θ′
+   (:func:`belief.least_squares.gauss_newton_step`, D + 4 evaluations). Run only when some
+   parameter would otherwise be identified or weakly identified.
+   (a) If the step lowers E by more than ``refit_nats`` nats, (E(θ̂) − E(θ′)) / (2σ²) >
+   refit_nats (minimizer mode: by more than 1 % of E(θ̂)), the data prefer a θ′ that P never
+   weighed: the search stopped short of the best fit (a decoder whose image misses it, a budget
+   too small for the dimension). A parameter whose θ′_j lies outside its interval -> not
+   identified.
+   (b) The local posterior std over all parameters, sqrt diag (JᵀJ/σ²)⁻¹ in the unit box,
+   divided by the box's uniform std 1/√12, enters rule 1 when larger than P's ratio. A decoder
+   that holds fixed a direction trading off with θ_j (μ in S = J²/(2 m² μ), with m searched)
+   makes P narrow in θ_j; the full-space ratio is not.
+
 Only a parameter that passes all of them is *identified*. The budget rule of thumb for a GP in d
 dimensions, n >= 10 d evaluations (Loeppky, Sacks & Welch 2009), is reported as a warning with the
 numbers when it is not met.
@@ -41,8 +55,8 @@ import xarray as xr
 
 from belief.errors import BeliefError
 
-__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "loglik_sd", "verified_mass", "segment_conflicts", "decide",
-           "budget_warning"]
+__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "loglik_sd", "verified_mass", "segment_conflicts",
+           "refit_conflicts", "decide", "budget_warning"]
 
 VERDICTS = ("identified", "weakly identified", "not identified")
 
@@ -57,8 +71,12 @@ class VerdictConfig:
     min_verified_mass: float = 0.5
     evaluations_per_dim: int = 10
     min_reach: float = 0.5
+    refit: bool = True
+    refit_nats: float = 3.0
 
     def __post_init__(self) -> None:
+        if not (np.isfinite(self.refit_nats) and self.refit_nats > 0):
+            raise BeliefError(f"VerdictConfig.refit_nats must be a positive number of nats, got {self.refit_nats!r}.")
         if not (np.isfinite(self.min_reach) and 0 <= self.min_reach <= 1):
             raise BeliefError(f"VerdictConfig.min_reach must lie in [0, 1], got {self.min_reach!r}.")
         if not (0 < self.identified_ratio <= self.weak_ratio <= 1):
@@ -120,6 +138,32 @@ def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified
     return out
 
 
+def refit_conflicts(marginals: xr.Dataset, theta: Sequence[float], error: float, start_error: float, *,
+                    noise_var: float | None, nats: float) -> dict[str, str]:
+    """Parameters whose interval excludes a significantly better local fit θ′ (module docstring, rule 5).
+
+    ``theta``: θ′ (D,); ``error``, ``start_error``: E(θ′) and E(θ̂); ``noise_var``: σ² of the
+    likelihood (None in minimizer mode). Returns parameter -> reason (only conflicting ones).
+    """
+    gain = float(start_error) - float(error)
+    if noise_var is not None:
+        score, significant = gain / (2.0 * noise_var), gain / (2.0 * noise_var) > nats
+        how = f"{score:.3g} nats"
+    else:
+        significant, how = gain > 0.01 * float(start_error), f"{gain / max(float(start_error), 1e-300):.1%} of E"
+    if not significant:
+        return {}
+    out: dict[str, str] = {}
+    for j, name in enumerate(str(n) for n in marginals["parameter"].values):
+        lo, hi, v = float(marginals["lower"].values[j]), float(marginals["upper"].values[j]), float(theta[j])
+        tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
+        if not (lo - tol <= v <= hi + tol):
+            out[name] = (f"a Gauss-Newton step from the best evaluation lowers E from {start_error:.4g} to "
+                         f"{error:.4g} ({how}) at {v:.4g}, outside the interval [{lo:.4g}, {hi:.4g}]: the search "
+                         "stopped short of the best fit, so P is narrow in the wrong place")
+    return out
+
+
 def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
     """A message when n_ok < per_dim x dim successful evaluations, else ""."""
     need = per_dim * dim
@@ -131,9 +175,9 @@ def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
             f"embedding for sharper answers.")
 
 
-def _sharp_verdict(j: int, marg: xr.Dataset, best: np.ndarray, vmass: float, cfg: VerdictConfig) -> tuple[str, str]:
+def _sharp_verdict(j: int, marg: xr.Dataset, best: np.ndarray, vmass: float, cfg: VerdictConfig,
+                   ratio: float) -> tuple[str, str]:
     lo, hi = float(marg["lower"].values[j]), float(marg["upper"].values[j])
-    ratio = float(marg["std"].values[j] / max(float(marg["prior_std"].values[j]), 1e-300))
     if vmass < cfg.min_verified_mass:
         return "weakly identified", (f"std is {ratio:.0%} of the prior's, but only {vmass:.0%} of P's mass lies on "
                                      f"cells whose likelihood the GP knows to {cfg.max_loglik_sd:g} nat: the "
@@ -146,12 +190,23 @@ def _sharp_verdict(j: int, marg: xr.Dataset, best: np.ndarray, vmass: float, cfg
                           "the best evaluated value lies inside the interval")
 
 
+def _ratio(marg: xr.Dataset, j: int, local: float) -> tuple[float, str]:
+    """(narrowing ratio, note): the larger of P's std/prior_std and the local ratio (rule 5b)."""
+    ratio = float(marg["std"].values[j] / max(float(marg["prior_std"].values[j]), 1e-300))
+    if local <= ratio:
+        return ratio, ""
+    return local, (f" (P alone gives {ratio:.0%}, but the local information over all parameters leaves "
+                   f"{local:.0%} of the box's std: the decoder holds fixed what trades off with it)")
+
+
 def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: float,
-           conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None) -> tuple[list[str], list[str]]:
-    """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 1-4).
+           conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None,
+           local_ratio: Sequence[float] | None = None) -> tuple[list[str], list[str]]:
+    """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 0-5).
 
     ``best_theta``: θ of the best evaluation (D,); ``verified``: P's verified mass in [0, 1];
-    ``conflicts``: parameter -> reason, from :func:`segment_conflicts`.
+    ``conflicts``: parameter -> reason, from :func:`segment_conflicts` or :func:`refit_conflicts`;
+    ``local_ratio``: (D,) local posterior std over the box's uniform std (rule 5b), or None.
     """
     cfg = config or VerdictConfig()
     best = np.asarray(best_theta, dtype=float)
@@ -159,10 +214,11 @@ def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: floa
     if best.shape != (len(names),):
         raise BeliefError(f"best_theta must have shape ({len(names)},), got {best.shape}.")
     conflicts = conflicts or {}
+    local = np.zeros(len(names)) if local_ratio is None else np.asarray(local_ratio, dtype=float)
     verdicts, reasons = [], []
     reach = marginals["reach"].values if "reach" in marginals else np.ones(len(names))
     for j, name in enumerate(names):
-        ratio = float(marginals["std"].values[j] / max(float(marginals["prior_std"].values[j]), 1e-300))
+        ratio, note = _ratio(marginals, j, float(local[j]))
         if reach[j] < cfg.min_reach:
             v, why = "not identified", reach_reason(float(reach[j]))
         elif name in conflicts:
@@ -172,7 +228,7 @@ def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: floa
         elif ratio >= cfg.identified_ratio:
             v, why = "weakly identified", f"std is {ratio:.0%} of the prior's"
         else:
-            v, why = _sharp_verdict(j, marginals, best, verified, cfg)
+            v, why = _sharp_verdict(j, marginals, best, verified, cfg, ratio)
         verdicts.append(v)
-        reasons.append(why)
+        reasons.append(why + note)
     return verdicts, reasons

@@ -6,7 +6,7 @@ import pytest
 from scipy.optimize import lsq_linear
 
 from belief.errors import BeliefError
-from belief.least_squares import LeastSquaresConfig, refine
+from belief.least_squares import LeastSquaresConfig, StepConfig, gauss_newton_step, refine
 from physics import ParameterSpace, PushError, generate_push_data, push_space
 from physics.parameters import Parameter
 
@@ -79,3 +79,29 @@ def test_refine_refuses_a_failing_start_and_bad_settings():
         refine(objective, np.array([1.0, 0.5]), [0], [False, False])
     with pytest.raises(BeliefError, match="evaluations"):
         LeastSquaresConfig(evaluations=0)
+
+
+def test_one_gauss_newton_step_solves_a_linear_problem_and_gives_its_laplace_std():
+    """r linear in θ: one undamped step (radius 1) lands on lsq_linear's solution, and the local std is
+    sqrt diag (AᵀA/σ²)⁻¹ (unit box = θ box here); a column that another reproduces has no bound."""
+    objective, _ = _problem(1)
+    exact = lsq_linear(objective.A, objective.y, bounds=(0.0, 1.0))
+    step = gauss_newton_step(objective, np.full(4, 0.5), StepConfig(radius=1.0, ridge=0.0))
+    assert step.error == pytest.approx(2 * exact.cost, rel=1e-6)
+    assert np.allclose(step.theta, exact.x, atol=1e-6)
+    assert step.evaluations == 4 + 1 + 3 and step.start_error > step.error
+    sigma2 = 0.01 ** 2
+    expected = np.sqrt(np.diag(np.linalg.inv(objective.A.T @ objective.A / sigma2)))
+    assert np.allclose(step.laplace_std(sigma2), expected, rtol=1e-5)
+    objective.A[:, 3] = 2.0 * objective.A[:, 2]
+    std = gauss_newton_step(objective, np.full(4, 0.5)).laplace_std(sigma2)
+    assert std[2] > 10 and std[3] > 10 and std[0] < 1
+
+
+def test_a_short_trust_radius_keeps_the_step_inside_it_and_never_worsens_e():
+    objective, _ = _problem(2, inside=False)
+    start = np.full(4, 0.5)
+    step = gauss_newton_step(objective, start, StepConfig(radius=0.05))
+    assert np.all(np.abs(step.theta - start) <= 0.05 + 1e-12) and step.error <= step.start_error
+    with pytest.raises(BeliefError, match="StepConfig"):
+        StepConfig(radius=0.0)

@@ -9,7 +9,8 @@ from belief.errors import BeliefError
 from belief.grid import Grid
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate
-from belief.verdicts import VerdictConfig, budget_warning, decide, loglik_sd, segment_conflicts, verified_mass
+from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, refit_conflicts, segment_conflicts,
+                             verified_mass)
 from embeddings import Identity
 from physics.parameters import Parameter, ParameterSpace
 
@@ -101,3 +102,25 @@ def test_marginals_report_the_reach_of_the_decoder() -> None:
     P = xr.DataArray(np.full(101, 1 / 101), dims=("z0",))
     reach = marginals(P, theta, space)["reach"].values
     assert abs(reach[0] - 1.0) < 0.05 and abs(reach[1] - 0.1) < 0.01
+
+
+def test_a_significantly_better_local_fit_outside_the_interval_is_a_conflict() -> None:
+    """Rule 5a: θ′ beats θ̂ by 5 nats; x0's interval excludes θ′_0, x1's contains θ′_1."""
+    m = _marg(mean=[0.5, 0.5], std=[0.01, 0.01], lower=[0.48, 0.48], upper=[0.52, 0.52])
+    out = refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.1, noise_var=0.01, nats=3.0)
+    assert list(out) == ["x0"] and "5 nats" in out["x0"] and "0.6" in out["x0"]
+    assert refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.04, noise_var=0.01, nats=3.0) == {}   # 2 nats
+    assert list(refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.1, noise_var=None, nats=3.0)) == ["x0"]
+    assert refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.005, noise_var=None, nats=3.0) == {}
+    v, why = decide(m, best_theta=[0.5, 0.5], verified=0.9, conflicts=out)
+    assert v == ["not identified", "identified"] and "Gauss-Newton" in why[0]
+    with pytest.raises(BeliefError, match="refit_nats"):
+        VerdictConfig(refit_nats=0.0)
+
+
+def test_the_local_ratio_over_all_parameters_caps_the_narrowing() -> None:
+    """Rule 5b: P narrow (4 % of the prior) but the full-space local std is 60 % or 90 % of the box's."""
+    m = _marg(mean=[0.5, 0.5, 0.5], std=[0.01, 0.01, 0.01], lower=[0.48, 0.48, 0.48], upper=[0.52, 0.52, 0.52])
+    v, why = decide(m, best_theta=[0.5, 0.5, 0.5], verified=0.9, local_ratio=[0.01, 0.6, 0.9])
+    assert v == ["identified", "weakly identified", "not identified"]
+    assert "local information" in why[1] and "local information" not in why[0]
