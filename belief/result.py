@@ -101,6 +101,10 @@ class IdentificationResult:
         if self.belief is None:
             return tail + " (no posterior)"
         warn = self.belief.attrs.get("budget_warning")
+        local = self.belief.attrs.get("local_fit") or {}
+        if "error" in local:
+            tail += (f"\nlocal fit over all parameters (verdict rule 5): one Gauss-Newton step from the best "
+                     f"evaluation gives E {local['error']:.6g} ({local['evaluations']} simulations)")
         return self.belief.summary(truth=truth) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")
 
     def save(self, path: "str | os.PathLike[str]") -> None:

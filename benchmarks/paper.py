@@ -199,8 +199,9 @@ def score(name: str, log: list, result: Any, held_out: Any, truth: np.ndarray, s
            "param_error_pct": (100 * np.abs(theta - truth) / np.abs(truth)).tolist()}
     if result is not None and getattr(result, "marginals", None) is not None:
         m = result.marginals
-        row.update(verdict=[str(v) for v in m["verdict"].values], mean=m["mean"].values.tolist(),
-                   lower=m["lower"].values.tolist(), upper=m["upper"].values.tolist())
+        row.update(verdict=[str(v) for v in m["verdict"].values], reason=[str(v) for v in m["reason"].values],
+                   mean=m["mean"].values.tolist(), lower=m["lower"].values.tolist(), upper=m["upper"].values.tolist(),
+                   local_fit=result.belief.attrs.get("local_fit"))
     return row
 
 

@@ -63,3 +63,5 @@ def test_the_local_fit_over_all_parameters_withdraws_the_verdict(line_runs) -> N
     local = belief.attrs["local_fit"]
     assert local["evaluations"] == 2 + 1 + 3 and local["error"] <= local["start_error"]
     assert local["std"][0] > (1.5 - 0.5) / np.sqrt(12)            # m's local std: beyond the prior's
+    assert "local fit over all parameters" in runs[True].summary()
+    assert "local fit" not in runs[False].summary()
