@@ -59,7 +59,8 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
     out = {}
     for name, b in (("robust", belief), ("nominal", PointBelief(belief.space.nominal)), ("MAP", PointBelief(belief.map))):
         run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=args.level,
-                           objective=args.objective, samples=args.samples, seed=seed, pool=pool, progress=False)
+                           objective=args.objective, samples=args.samples, seed=seed, horizon=args.horizon,
+                           pool=pool, progress=False)
         out[name] = (run.reached, len(run.steps), run.final_distance)
         if args.verbose:
             print(f"  {name}: " + "; ".join(f"{st.choice.action.label} score {st.choice.scores[st.choice.index]:+.2f} "
@@ -109,7 +110,8 @@ def _print_tables(plans: list[dict], probes: list[dict], args: argparse.Namespac
 def _print_plans(plans: list[dict], args: argparse.Namespace) -> None:
     n = len(plans)
     print(f"\nPlanning to a goal {args.distance:g} m away (radius {args.radius:g} m, at most {args.steps} flops, "
-          f"K = {args.samples} draws, robust objective {args.objective}, α = {args.level:g}), {n} seeds")
+          f"K = {args.samples} draws, robust objective {args.objective}, α = {args.level:g}, horizon {args.horizon}), "
+          f"{n} seeds")
     print(f"{'planner':<10}{'reached':>10}{'rate':>7}{'mean flops':>12}{'mean final distance [m]':>26}")
     for name in ("robust", "nominal", "MAP"):
         r = [p[name] for p in plans]
@@ -142,6 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--samples", type=int, default=8)
     p.add_argument("--level", type=float, default=0.2)
     p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
+    p.add_argument("--horizon", type=int, choices=[1, 2], default=2, help="1: progress; 2: flops to go (lookahead)")
     p.add_argument("--cells", type=int, default=12)
     p.add_argument("--probes", type=int, default=4)
     p.add_argument("--entropy", type=float, default=0.5)

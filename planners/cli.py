@@ -2,7 +2,7 @@
 
 ::
 
-    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--truth T] [--compare] --out DIR
+    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2] [--truth T] [--compare] --out DIR
     tensegrid probe BELIEF.nc [--truth T] [--steps N] [--cells M] [--sigma S] [--targets NAME ...] --out DIR
 
 The robot is simulated at the truth T: ``nominal`` (default), a JSON file ({name: value} or 15
@@ -79,6 +79,8 @@ def register_plan(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("--level", type=float, default=0.2, help="CVaR level α in (0, 1] (default 0.2)")
     p.add_argument("--samples", type=int, default=12, help="θ draws of the belief per candidate (default 12)")
     p.add_argument("--radius", type=float, default=0.5, help="goal radius [m] (default 0.5)")
+    p.add_argument("--horizon", type=int, choices=[1, 2], default=2,
+                   help="1: progress of each flop; 2: flops to go, the next flop predicted (default 2)")
     p.add_argument("--steps", type=int, default=8, help="at most this many flops (default 8)")
     p.add_argument("--compare", action="store_true", help="also plan with the nominal θ and the MAP θ")
     p.set_defaults(func=run_plan)
@@ -117,11 +119,13 @@ def run_plan(args: argparse.Namespace) -> int:
         planners.update({"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)})
     os.makedirs(args.out, exist_ok=True)
     runs, record = {}, {"goal": list(args.goal), "truth": truth.tolist(), "objective": args.objective,
-                        "level": args.level, "samples": args.samples, "radius": args.radius, "runs": {}}
+                        "level": args.level, "samples": args.samples, "radius": args.radius,
+                        "horizon": args.horizon, "runs": {}}
     with DaskPool(n_workers=args.workers) as pool:
         for name, b in planners.items():
             run = plan_to_goal(b, truth, args.goal, radius=args.radius, max_steps=args.steps, objective=args.objective,
-                               level=args.level, samples=args.samples, seed=args.seed, pool=pool)
+                               level=args.level, samples=args.samples, seed=args.seed, horizon=args.horizon,
+                               pool=pool)
             runs[name] = run
             record["runs"][name] = {"reached": run.reached, "final_distance": run.final_distance,
                                     "steps": [_step_json(s) for s in run.steps]}

@@ -4,12 +4,15 @@ For a goal g (``2`` [m]) and a start centre c₀, a flop with displacement Δ ma
 
     progress = ‖g − c₀‖ − ‖g − c₀ − Δ‖        [m]  (distance to the goal removed; 0 if not "ok")
 
+With ``horizon=2`` (the default) the value of an outcome is instead −flops_to_go: the flops still
+needed to be within ``radius`` of the goal, the next flop predicted from the landing face's edges
+(:mod:`planners.lookahead`); a nudge that leaves the robot on its face no longer looks free.
 Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score (``objective``):
 
-- ``"expected"``: mean_k progress_k;
-- ``"cvar"``: CVaR_α, the mean of the worst α fraction (:func:`cvar`);
+- ``"expected"``: mean_k value_k;
+- ``"cvar"``: CVaR_α of the values, the mean of the worst α fraction (:func:`cvar`);
 - ``"success"``: Pr[success] = mean_k 1{ok, the face changed, progress_k > threshold}, ties broken
-  by the expected progress.
+  by the expected value.
 
 :func:`plan_flop` picks the best candidate (ties: the first); :func:`plan_to_goal` repeats {plan
 under P, execute on the robot (hidden θ*), sense the new state} until the robot's centre is within
@@ -29,6 +32,7 @@ from physics.parameters import ParameterSpace
 from physics.pool import DaskPool
 from planners.actions import FlopAction, candidate_actions
 from planners.errors import GoalError, LevelError, PlannerError
+from planners.lookahead import flops_to_go
 from planners.robot import SimulatedRobot
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, pool_for, sample_rollouts
 
@@ -91,19 +95,24 @@ def progress(displacement: np.ndarray, ok: np.ndarray, start: np.ndarray, goal: 
 
 
 def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: float = 0.2,
-          threshold: float = 0.2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(scores ``n_a``, progress ``n_a x K`` [m], success ``n_a x K`` bool) of a rollout set (module docstring)."""
+          threshold: float = 0.2, horizon: int = 1, radius: float = 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(scores ``n_a``, progress ``n_a x K`` [m], success ``n_a x K`` bool) of a rollout set (module
+    docstring); the scores are in metres of progress (``horizon`` 1) or in −flops to go (``horizon`` 2)."""
     if objective not in OBJECTIVES:
         raise PlannerError(f"objective must be one of {OBJECTIVES}, got {objective!r}.")
+    if horizon not in (1, 2):
+        raise PlannerError(f"horizon must be 1 (progress of this flop) or 2 (flops to go, the next one "
+                           f"predicted), got {horizon!r}.")
     alpha = check_level(level)
     prog = progress(rs.displacement, rs.ok, rs.start.centre, goal)
+    value = prog if horizon == 1 else -flops_to_go(rs, goal, radius)
     success = rs.flopped & (prog > threshold)
     if objective == "expected":
-        s = prog.mean(axis=1)
+        s = value.mean(axis=1)
     elif objective == "cvar":
-        s = np.array([cvar(row, alpha) for row in prog])
+        s = np.array([cvar(row, alpha) for row in value])
     else:
-        s = success.mean(axis=1) + 1e-6 * np.tanh(prog.mean(axis=1))   # tie-break by expected progress
+        s = success.mean(axis=1) + 1e-6 * np.tanh(value.mean(axis=1))   # tie-break by the expected value
     return s, prog, success
 
 
@@ -138,6 +147,7 @@ class FlopChoice:
     rollouts: RolloutSet = field(repr=False)
     objective: str = "cvar"
     level: float = 0.2
+    horizon: int = 2
 
 
 def _start(start: Any) -> RobotStart:
@@ -153,10 +163,11 @@ def _start(start: Any) -> RobotStart:
 
 def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequence[FlopAction] | None = None,
               objective: str = "cvar", level: float = 0.2, samples: int = 16, seed: int = 0,
-              threshold: float = 0.2, radius: float = 0.3, max_distance: float = 20.0,
+              threshold: float = 0.2, radius: float = 0.5, max_distance: float = 20.0, horizon: int = 2,
               pool: DaskPool | None = None, n_workers: int = 0, progress: bool = False) -> FlopChoice:
-    """Best flop from ``start`` (RobotStart, T6Model or None) toward ``goal`` under K = ``samples`` draws
-    of ``belief`` (seed ``seed``); ``actions`` default: :func:`candidate_actions` on the start's face."""
+    """Best flop from ``start`` (RobotStart, T6Model or None) toward the disc of ``radius`` [m] around
+    ``goal`` under K = ``samples`` draws of ``belief`` (seed ``seed``); ``actions`` default:
+    :func:`candidate_actions` on the start's face; ``horizon``: 1 or 2 (module docstring)."""
     check_belief(belief)
     check_level(level)
     st = _start(start)
@@ -164,9 +175,10 @@ def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequen
     acts = tuple(actions) if actions is not None else candidate_actions(nodes=st.nodes)
     rs = sample_rollouts(belief, acts, st, samples=samples, seed=seed, pool=pool, n_workers=n_workers,
                          progress=progress)
-    s, prog, success = score(rs, g, objective=objective, level=level, threshold=threshold)
+    s, prog, success = score(rs, g, objective=objective, level=level, threshold=threshold, horizon=horizon,
+                             radius=radius)
     k = int(np.argmax(s))
-    return FlopChoice(acts[k], k, s, prog, success, rs, objective, float(level))
+    return FlopChoice(acts[k], k, s, prog, success, rs, objective, float(level), int(horizon))
 
 
 @dataclass(frozen=True)
@@ -203,8 +215,9 @@ class GoalRun:
 
 def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal: Sequence[float], *,
                  radius: float = 0.5, max_steps: int = 8, objective: str = "cvar", level: float = 0.2,
-                 samples: int = 16, seed: int = 0, threshold: float = 0.2, actions_kw: dict | None = None,
-                 pool: DaskPool | None = None, n_workers: int = 0, progress: bool = True) -> GoalRun:
+                 samples: int = 16, seed: int = 0, threshold: float = 0.2, horizon: int = 2,
+                 actions_kw: dict | None = None, pool: DaskPool | None = None, n_workers: int = 0,
+                 progress: bool = True) -> GoalRun:
     """Flop to ``goal`` [m]: repeat {plan_flop under ``belief`` (seed + step), execute on ``robot``
     (a SimulatedRobot, or θ* to build one), sense} until within ``radius`` or ``max_steps`` flops.
 
@@ -225,7 +238,7 @@ def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal:
             st = robot.observe()
             acts = candidate_actions(nodes=st.nodes, **(actions_kw or {}))
             choice = plan_flop(belief, st, g, actions=acts, objective=objective, level=level, samples=samples,
-                               seed=seed + k, threshold=threshold, radius=0.0, pool=pool)
+                               seed=seed + k, threshold=threshold, radius=radius, horizon=horizon, pool=pool)
             before = robot.centre
             out = robot.execute(choice.action, choice.rollouts.plans[choice.index])
             after = robot.centre
