@@ -5,7 +5,9 @@ identify faster.
 - :mod:`planners.rollouts`: one flop from a sensed start under many θ, in parallel
   (:class:`RobotStart`, :class:`Outcome`, :func:`rollouts`, :func:`sample_rollouts`);
 - :mod:`planners.robot`: the "real" robot of an experiment, a simulation at a hidden θ*;
-- :mod:`planners.robust`: expected progress, CVaR_α, probability of success; :func:`plan_flop`,
+- :mod:`planners.lookahead`: flops still needed after a flop, the next one predicted from the
+  landing face (the two-flop horizon);
+- :mod:`planners.robust`: expected value, CVaR_α, probability of success; :func:`plan_flop`,
   :func:`plan_to_goal`, :class:`PointBelief` (nominal and MAP plans);
 - :mod:`planners.probe`: expected information gain of a probe and the active identification loop;
 - :mod:`planners.plots`, :mod:`planners.cli` (``tensegrid plan``, ``tensegrid probe``).
@@ -21,15 +23,17 @@ from planners.probe import (
 )
 from planners.robot import SimulatedRobot
 from planners.robust import (
-    OBJECTIVES, FlopChoice, GoalRun, PlanStep, PointBelief, cvar, plan_flop, plan_to_goal, progress, score,
+    OBJECTIVES, FlopChoice, GoalRun, PlanStep, PointBelief, cvar, outcome_values, plan_flop, plan_to_goal, progress,
+    score,
 )
+from planners.lookahead import flops_to_go
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, rollouts, sample_rollouts
 
 __all__ = [
     "FlopAction", "candidate_actions", "face_headings",
     "PlannerError", "ActionError", "GoalError", "EmptyBeliefError", "RobotMismatchError", "LevelError",
     "RobotStart", "Outcome", "RolloutSet", "check_belief", "rollouts", "sample_rollouts", "SimulatedRobot",
-    "OBJECTIVES", "PointBelief", "cvar", "progress", "score", "FlopChoice", "plan_flop", "PlanStep", "GoalRun",
+    "OBJECTIVES", "PointBelief", "cvar", "progress", "outcome_values", "flops_to_go", "score", "FlopChoice", "plan_flop", "PlanStep", "GoalRun",
     "plan_to_goal",
     "support", "information_gain", "update_weights", "probe_actions", "restricted_belief", "ProbeStep", "ProbeRun",
     "probe",

@@ -3,8 +3,8 @@
 - :func:`plot_plan`: left, the ground plane: the goal and its radius, the resting faces (triangles
   of the three lowest nodes) along the robot's path, the centre's path of each planner compared,
   and for every step the centres the chosen flop reached under the K draws of P (the spread of
-  outcomes); right, the progress [m] of every candidate of the first step under P, the chosen one
-  marked, with the mean and the CVaR;
+  outcomes); right, the value of every candidate of the first step under each draw of P (progress
+  [m] with horizon 1, −flops to go with horizon 2), the chosen one marked, with the mean and the CVaR;
 - :func:`plot_probe`: entropy of P over the probed cells and the chosen action's expected gain
   per probe.
 """
@@ -58,7 +58,7 @@ def _ground(ax: "plt.Axes", run: GoalRun, others: Mapping[str, GoalRun]) -> None
 
 def _spread(ax: "plt.Axes", run: GoalRun) -> None:
     choice = run.steps[0].choice
-    prog = choice.progress
+    prog = choice.progress if choice.values is None else choice.values
     for a in range(prog.shape[0]):
         x = np.full(prog.shape[1], a) + np.linspace(-0.2, 0.2, prog.shape[1])
         ax.plot(x, prog[a], ".", color="C3" if a == choice.index else "0.5", ms=4)
@@ -68,7 +68,7 @@ def _spread(ax: "plt.Axes", run: GoalRun) -> None:
     ax.plot([], [], "-", color="C1", label=f"CVaR α={choice.level:g}")
     ax.set_xticks(range(prog.shape[0]))
     ax.set_xticklabels([a.label for a in choice.rollouts.actions], rotation=70, fontsize=6)
-    ax.set_ylabel("progress toward the goal [m]")
+    ax.set_ylabel("progress toward the goal [m]" if choice.horizon == 1 else "−flops to go (two-flop lookahead)")
     ax.set_title(f"first step: {prog.shape[1]} draws of P per candidate ({choice.objective})", fontsize=9)
     ax.legend(fontsize=7)
 

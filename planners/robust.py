@@ -36,8 +36,8 @@ from planners.lookahead import flops_to_go
 from planners.robot import SimulatedRobot
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, pool_for, sample_rollouts
 
-__all__ = ["OBJECTIVES", "PointBelief", "check_level", "cvar", "progress", "score", "check_goal", "FlopChoice", "plan_flop",
-           "PlanStep", "GoalRun", "plan_to_goal"]
+__all__ = ["OBJECTIVES", "PointBelief", "check_level", "cvar", "progress", "outcome_values", "score", "check_goal",
+           "FlopChoice", "plan_flop", "PlanStep", "GoalRun", "plan_to_goal"]
 
 OBJECTIVES = ("expected", "cvar", "success")
 
@@ -94,18 +94,26 @@ def progress(displacement: np.ndarray, ok: np.ndarray, start: np.ndarray, goal: 
     return np.linalg.norm(g) - np.linalg.norm(g - d, axis=-1)
 
 
+def outcome_values(rs: RolloutSet, goal: np.ndarray, *, horizon: int, radius: float,
+                   prog: np.ndarray | None = None) -> np.ndarray:
+    """The value of every outcome, ``n_a x K``: progress [m] (``horizon`` 1) or −flops to go (2)."""
+    if horizon not in (1, 2):
+        raise PlannerError(f"horizon must be 1 (progress of this flop) or 2 (flops to go, the next one "
+                           f"predicted), got {horizon!r}.")
+    if horizon == 2:
+        return -flops_to_go(rs, goal, radius)
+    return progress(rs.displacement, rs.ok, rs.start.centre, goal) if prog is None else prog
+
+
 def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: float = 0.2,
           threshold: float = 0.2, horizon: int = 1, radius: float = 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(scores ``n_a``, progress ``n_a x K`` [m], success ``n_a x K`` bool) of a rollout set (module
     docstring); the scores are in metres of progress (``horizon`` 1) or in −flops to go (``horizon`` 2)."""
     if objective not in OBJECTIVES:
         raise PlannerError(f"objective must be one of {OBJECTIVES}, got {objective!r}.")
-    if horizon not in (1, 2):
-        raise PlannerError(f"horizon must be 1 (progress of this flop) or 2 (flops to go, the next one "
-                           f"predicted), got {horizon!r}.")
     alpha = check_level(level)
     prog = progress(rs.displacement, rs.ok, rs.start.centre, goal)
-    value = prog if horizon == 1 else -flops_to_go(rs, goal, radius)
+    value = outcome_values(rs, goal, horizon=horizon, radius=radius, prog=prog)
     success = rs.flopped & (prog > threshold)
     if objective == "expected":
         s = value.mean(axis=1)
@@ -137,7 +145,8 @@ def check_goal(goal: Any, centre: np.ndarray, *, radius: float, max_distance: fl
 @dataclass(frozen=True)
 class FlopChoice:
     """The chosen flop: ``action`` (index ``index`` of ``rollouts.actions``), ``scores`` ``n_a``,
-    ``progress`` ``n_a x K`` [m], ``success`` ``n_a x K``, the ``rollouts`` and the settings."""
+    ``progress`` ``n_a x K`` [m], ``success`` ``n_a x K``, the ``rollouts``, the settings and
+    ``values`` ``n_a x K``, what the scores summarize (:func:`outcome_values`)."""
 
     action: FlopAction
     index: int
@@ -148,6 +157,7 @@ class FlopChoice:
     objective: str = "cvar"
     level: float = 0.2
     horizon: int = 2
+    values: np.ndarray | None = field(default=None, repr=False)
 
 
 def _start(start: Any) -> RobotStart:
@@ -178,7 +188,8 @@ def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequen
     s, prog, success = score(rs, g, objective=objective, level=level, threshold=threshold, horizon=horizon,
                              radius=radius)
     k = int(np.argmax(s))
-    return FlopChoice(acts[k], k, s, prog, success, rs, objective, float(level), int(horizon))
+    values = outcome_values(rs, g, horizon=horizon, radius=radius, prog=prog)
+    return FlopChoice(acts[k], k, s, prog, success, rs, objective, float(level), int(horizon), values)
 
 
 @dataclass(frozen=True)
