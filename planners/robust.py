@@ -5,8 +5,9 @@ For a goal g (``2`` [m]) and a start centre c₀, a flop with displacement Δ ma
     progress = ‖g − c₀‖ − ‖g − c₀ − Δ‖        [m]  (distance to the goal removed; 0 if not "ok")
 
 With ``horizon=2`` (the default) the value of an outcome is instead −flops_to_go: the flops still
-needed to be within ``radius`` of the goal, the next flop predicted from the landing face's edges
-(:mod:`planners.lookahead`); a nudge that leaves the robot on its face no longer looks free.
+needed to be within ``radius`` of the goal, the next flop across each edge of the landing face
+simulated under the draws' mean θ (:mod:`planners.lookahead`); a nudge that leaves the robot on its
+face no longer looks free.
 Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score (``objective``):
 
 - ``"expected"``: mean_k value_k;
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -32,7 +33,7 @@ from physics.parameters import ParameterSpace
 from physics.pool import DaskPool
 from planners.actions import FlopAction, candidate_actions
 from planners.errors import GoalError, LevelError, PlannerError
-from planners.lookahead import flops_to_go
+from planners.lookahead import flops_to_go, next_flops
 from planners.robot import SimulatedRobot
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, pool_for, sample_rollouts
 
@@ -95,25 +96,27 @@ def progress(displacement: np.ndarray, ok: np.ndarray, start: np.ndarray, goal: 
 
 
 def outcome_values(rs: RolloutSet, goal: np.ndarray, *, horizon: int, radius: float,
-                   prog: np.ndarray | None = None) -> np.ndarray:
-    """The value of every outcome, ``n_a x K``: progress [m] (``horizon`` 1) or −flops to go (2)."""
+                   prog: np.ndarray | None = None, nxt: Mapping[tuple[int, ...], np.ndarray] | None = None) -> np.ndarray:
+    """The value of every outcome, ``n_a x K``: progress [m] (``horizon`` 1) or −flops to go (2; ``nxt``:
+    the simulated next flops of :func:`planners.lookahead.next_flops`)."""
     if horizon not in (1, 2):
         raise PlannerError(f"horizon must be 1 (progress of this flop) or 2 (flops to go, the next one "
                            f"predicted), got {horizon!r}.")
     if horizon == 2:
-        return -flops_to_go(rs, goal, radius)
+        return -flops_to_go(rs, goal, radius, nxt)
     return progress(rs.displacement, rs.ok, rs.start.centre, goal) if prog is None else prog
 
 
 def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: float = 0.2,
-          threshold: float = 0.2, horizon: int = 1, radius: float = 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+          threshold: float = 0.2, horizon: int = 1, radius: float = 0.5,
+          nxt: Mapping[tuple[int, ...], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(scores ``n_a``, progress ``n_a x K`` [m], success ``n_a x K`` bool) of a rollout set (module
     docstring); the scores are in metres of progress (``horizon`` 1) or in −flops to go (``horizon`` 2)."""
     if objective not in OBJECTIVES:
         raise PlannerError(f"objective must be one of {OBJECTIVES}, got {objective!r}.")
     alpha = check_level(level)
     prog = progress(rs.displacement, rs.ok, rs.start.centre, goal)
-    value = outcome_values(rs, goal, horizon=horizon, radius=radius, prog=prog)
+    value = outcome_values(rs, goal, horizon=horizon, radius=radius, prog=prog, nxt=nxt)
     success = rs.flopped & (prog > threshold)
     if objective == "expected":
         s = value.mean(axis=1)
@@ -183,12 +186,17 @@ def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequen
     st = _start(start)
     g = check_goal(goal, st.centre, radius=radius, max_distance=max_distance)
     acts = tuple(actions) if actions is not None else candidate_actions(nodes=st.nodes)
-    rs = sample_rollouts(belief, acts, st, samples=samples, seed=seed, pool=pool, n_workers=n_workers,
-                         progress=progress)
+    pool, own = pool_for(pool, n_workers)
+    try:
+        rs = sample_rollouts(belief, acts, st, samples=samples, seed=seed, pool=pool, progress=progress)
+        nxt = next_flops(rs, pool) if horizon == 2 else None
+    finally:
+        if own:
+            pool.close()
     s, prog, success = score(rs, g, objective=objective, level=level, threshold=threshold, horizon=horizon,
-                             radius=radius)
+                             radius=radius, nxt=nxt)
     k = int(np.argmax(s))
-    values = outcome_values(rs, g, horizon=horizon, radius=radius, prog=prog)
+    values = outcome_values(rs, g, horizon=horizon, radius=radius, prog=prog, nxt=nxt)
     return FlopChoice(acts[k], k, s, prog, success, rs, objective, float(level), int(horizon), values)
 
 

@@ -7,7 +7,8 @@ import pytest
 from planners import FlopAction, Outcome, RobotStart, RolloutSet, score
 from planners.actions import face_headings
 from planners.errors import PlannerError
-from planners.lookahead import DEFAULT_FLOP_LENGTH, distance_to_disc, flop_length, flops_to_go
+from planners.lookahead import (DEFAULT_FLOP_LENGTH, TIE_BREAK, distance_to_disc, flop_length, flops_to_go,
+                                 next_flops)
 
 
 def _start() -> RobotStart:
@@ -41,7 +42,8 @@ def test_flops_to_go_formula() -> None:
     h = face_headings(rs.start.nodes)
     c1 = np.array([0.05, 0.0])
     nxt = c1 + L * np.column_stack([np.cos(h), np.sin(h)])
-    expected_nudge = 1 + min(float(distance_to_disc(c1, goal, r)), distance_to_disc(nxt, goal, r).min()) / L
+    expected_nudge = (1 + min(float(distance_to_disc(c1, goal, r)), distance_to_disc(nxt, goal, r).min()) / L
+                      + TIE_BREAK * np.linalg.norm(goal - nxt, axis=1).min() / L)
     assert flops_to_go(rs, goal, r)[0] == pytest.approx([0.0, 0.0, expected_nudge])
     assert flop_length(_set([[(0.05, False)]])) == DEFAULT_FLOP_LENGTH
     with pytest.raises(PlannerError, match="radius"):
@@ -60,3 +62,32 @@ def test_the_lookahead_prefers_a_flop_into_the_disc_to_a_safe_nudge() -> None:
     assert np.all(two <= 0)                                          # −flops to go
     with pytest.raises(PlannerError, match="horizon"):
         score(rs, goal, horizon=3)
+
+
+def test_simulated_next_flops_replace_the_geometric_guess() -> None:
+    """Δ₂ given for the start's face: an outcome that stays lands where Δ₂ says, not at L n_e."""
+    goal, r = np.array([1.0, 0.0]), 0.3
+    rs = _set([[(0.05, False), (0.6, True)]])
+    face = tuple(rs.start.face)
+    into = {face: np.array([[0.9, 0.0], [np.nan, np.nan], [-0.5, 0.0]])}     # the NaN row (diverged) is skipped
+    got = flops_to_go(rs, goal, r, into)[0]
+    L = flop_length(rs)
+    assert got[0] == pytest.approx(1 + TIE_BREAK * 0.05 / L)                 # 0.05 + 0.9 = 0.95: in the disc
+    away = {face: np.array([[-0.5, 0.0]])}
+    assert flops_to_go(rs, goal, r, away)[0, 0] > 1 + (0.95 - r) / L
+
+
+def test_next_flops_simulates_three_edges_per_landing_face() -> None:
+    from physics.parameters import ParameterSpace
+    from physics.pool import DaskPool
+    from planners import rollouts
+
+    start = RobotStart.settled()
+    theta = ParameterSpace.t6().nominal
+    with DaskPool(n_workers=0) as pool:
+        rs = rollouts([FlopAction(float(face_headings(start.nodes)[0]), 0.3, 4)], start, theta[None], pool=pool)
+        nxt = next_flops(rs, pool)
+    faces = {tuple(start.face)} | {tuple(o.face) for row in rs.outcomes for o in row if o.ok}
+    assert set(nxt) == faces and all(d.shape == (3, 2) for d in nxt.values())
+    lengths = np.linalg.norm(np.concatenate(list(nxt.values())), axis=1)
+    assert np.all(np.isfinite(lengths)) and np.median(lengths) > 0.2        # real flops, not nudges
