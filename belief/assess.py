@@ -9,9 +9,10 @@
     4  one posterior per segment of E (time windows, trajectories) from a GP fitted to that
        segment's errors, with that segment's own σ²; disjoint narrow intervals = conflict
     5  marginals of P and a verdict per parameter (belief.verdicts.decide)
-    6  if any parameter is (weakly) identified: one Gauss-Newton step of all parameters from the
-       best evaluated θ (D + 4 evaluations); a significantly better fit outside a parameter's
-       interval makes it not identified (belief.verdicts rule 5)
+    6  if any parameter is (weakly) identified: the Jacobian over all parameters at the best
+       evaluated θ and one Gauss-Newton step (D + 4 evaluations); a much better fit outside a
+       parameter's interval, or a local std wider than P's, withdraws its verdict (belief.verdicts
+       rule 5)
 
 Objectives without ``residuals`` fall back to the "iid" rule; objectives without segments skip
 step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff and the budget warning.

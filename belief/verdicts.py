@@ -3,7 +3,7 @@
 A narrow marginal is necessary but not sufficient. Under model error, or with a budget too small
 for the dimension, P can be narrow in the wrong place (the GP's lower tail on cells nobody
 evaluated, or a minimum of E that model error moved away from the truth). The verdict of
-parameter j therefore combines four pieces of evidence:
+parameter j therefore combines these pieces of evidence:
 
 1. **Narrowing**: ratio_j = std_j / prior_std_j of the marginal of P.
    ratio >= ``weak_ratio`` -> not identified; ``identified_ratio`` <= ratio < ``weak_ratio`` ->

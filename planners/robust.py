@@ -8,6 +8,7 @@ With ``horizon=2`` (the default) the value of an outcome is instead −flops_to_
 needed to be within ``radius`` of the goal, the next flop across each edge of the landing face
 simulated under the draws' mean θ (:mod:`planners.lookahead`); a nudge that leaves the robot on its
 face no longer looks free.
+
 Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score (``objective``):
 
 - ``"expected"``: mean_k value_k;
