@@ -110,14 +110,16 @@ def outcome_values(rs: RolloutSet, goal: np.ndarray, *, horizon: int, radius: fl
 
 def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: float = 0.2,
           threshold: float = 0.2, horizon: int = 1, radius: float = 0.5,
-          nxt: Mapping[tuple[int, ...], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+          nxt: Mapping[tuple[int, ...], np.ndarray] | None = None,
+          values: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(scores ``n_a``, progress ``n_a x K`` [m], success ``n_a x K`` bool) of a rollout set (module
-    docstring); the scores are in metres of progress (``horizon`` 1) or in −flops to go (``horizon`` 2)."""
+    docstring); the scores are in metres of progress (``horizon`` 1) or in −flops to go (``horizon`` 2).
+    ``values``: the outcome values if already computed (:func:`outcome_values`)."""
     if objective not in OBJECTIVES:
         raise PlannerError(f"objective must be one of {OBJECTIVES}, got {objective!r}.")
     alpha = check_level(level)
     prog = progress(rs.displacement, rs.ok, rs.start.centre, goal)
-    value = outcome_values(rs, goal, horizon=horizon, radius=radius, prog=prog, nxt=nxt)
+    value = outcome_values(rs, goal, horizon=horizon, radius=radius, prog=prog, nxt=nxt) if values is None else values
     success = rs.flopped & (prog > threshold)
     if objective == "expected":
         s = value.mean(axis=1)
@@ -194,10 +196,10 @@ def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequen
     finally:
         if own:
             pool.close()
+    values = outcome_values(rs, g, horizon=horizon, radius=radius, nxt=nxt)
     s, prog, success = score(rs, g, objective=objective, level=level, threshold=threshold, horizon=horizon,
-                             radius=radius, nxt=nxt)
+                             radius=radius, values=values)
     k = int(np.argmax(s))
-    values = outcome_values(rs, g, horizon=horizon, radius=radius, prog=prog, nxt=nxt)
     return FlopChoice(acts[k], k, s, prog, success, rs, objective, float(level), int(horizon), values)
 
 
