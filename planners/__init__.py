@@ -9,6 +9,7 @@ identify faster.
   landing face (the two-flop horizon);
 - :mod:`planners.robust`: expected value, CVaR_α, probability of success; :func:`plan_flop`,
   :func:`plan_to_goal`, :class:`PointBelief` (nominal and MAP plans);
+- :mod:`planners.learning`: P re-weighed by every executed flop (:class:`FlopEvidence`);
 - :mod:`planners.probe`: expected information gain of a probe and the active identification loop;
 - :mod:`planners.plots`, :mod:`planners.cli` (``tensegrid plan``, ``tensegrid probe``).
 
@@ -26,6 +27,7 @@ from planners.robust import (
     OBJECTIVES, FlopChoice, GoalRun, PlanStep, PointBelief, cvar, outcome_values, plan_flop, plan_to_goal, progress,
     score,
 )
+from planners.learning import FlopEvidence
 from planners.lookahead import flops_to_go
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, rollouts, sample_rollouts
 
@@ -36,5 +38,5 @@ __all__ = [
     "OBJECTIVES", "PointBelief", "cvar", "progress", "outcome_values", "flops_to_go", "score", "FlopChoice", "plan_flop", "PlanStep", "GoalRun",
     "plan_to_goal",
     "support", "information_gain", "update_weights", "probe_actions", "restricted_belief", "ProbeStep", "ProbeRun",
-    "probe",
+    "probe", "FlopEvidence",
 ]

@@ -17,8 +17,9 @@ Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score (
   by the expected value.
 
 :func:`plan_flop` picks the best candidate (ties: the first); :func:`plan_to_goal` repeats {plan
-under P, execute on the robot (hidden θ*), sense the new state} until the robot's centre is within
-``radius`` of the goal or ``max_steps`` flops were made. The nominal and MAP plans are the same
+under P, execute on the robot (hidden θ*), sense the new state, re-weigh P by the flop's recording
+(``learn``, :mod:`planners.learning`)} until the robot's centre is within ``radius`` of the goal or
+``max_steps`` flops were made. The nominal and MAP plans are the same
 planner on a :class:`PointBelief` (all mass on one θ).
 """
 from __future__ import annotations
@@ -34,6 +35,7 @@ from physics.parameters import ParameterSpace
 from physics.pool import DaskPool
 from planners.actions import FlopAction, candidate_actions
 from planners.errors import GoalError, LevelError, PlannerError
+from planners.learning import FlopEvidence
 from planners.lookahead import flops_to_go, next_flops
 from planners.robot import SimulatedRobot
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, pool_for, sample_rollouts
@@ -206,13 +208,15 @@ def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequen
 @dataclass(frozen=True)
 class PlanStep:
     """One step of a multi-step plan: the ``choice`` made under P and the robot's true ``outcome``;
-    ``centre`` before and after [m] and the distance to the goal after [m]."""
+    ``centre`` before and after [m], the distance to the goal after [m] and the entropy of the
+    re-weighed P after the flop [nats] (None when P is not updated)."""
 
     choice: FlopChoice
     outcome: Outcome
     before: np.ndarray
     after: np.ndarray
     distance: float
+    entropy: float | None = None
 
 
 @dataclass(frozen=True)
@@ -238,13 +242,15 @@ class GoalRun:
 def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal: Sequence[float], *,
                  radius: float = 0.5, max_steps: int = 8, objective: str = "cvar", level: float = 0.2,
                  samples: int = 16, seed: int = 0, threshold: float = 0.2, horizon: int = 2,
-                 actions_kw: dict | None = None, pool: DaskPool | None = None, n_workers: int = 0,
-                 progress: bool = True) -> GoalRun:
+                 learn: bool = True, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
+                 pool: DaskPool | None = None, n_workers: int = 0, progress: bool = True) -> GoalRun:
     """Flop to ``goal`` [m]: repeat {plan_flop under ``belief`` (seed + step), execute on ``robot``
     (a SimulatedRobot, or θ* to build one), sense} until within ``radius`` or ``max_steps`` flops.
 
-    ``actions_kw``: options of :func:`candidate_actions` (changes, n_cables, duration, ...), taken
-    on each new resting face.
+    ``learn``: plan on ``cells`` cells of P re-weighed after every flop by its recording, noise
+    ``sigma`` [m] (:class:`~planners.learning.FlopEvidence`; a :class:`PointBelief` is never
+    updated). ``actions_kw``: options of :func:`candidate_actions` (changes, n_cables, duration,
+    ...), taken on each new resting face.
     """
     check_belief(belief)
     check_level(level)
@@ -253,19 +259,24 @@ def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal:
         raise PlannerError(f"max_steps must be an integer >= 1, got {max_steps!r}.")
     origin = robot.centre
     g = check_goal(goal, origin, radius=radius, max_distance=20.0)
+    evidence = FlopEvidence(belief, cells=cells, seed=seed, sigma=sigma) \
+        if learn and hasattr(belief, "sample_cells") else None
     pool, own = pool_for(pool, n_workers)
     steps: list[PlanStep] = []
     try:
         for k in tqdm(range(int(max_steps)), desc="plan_to_goal", disable=not progress, leave=False):
             st = robot.observe()
             acts = candidate_actions(nodes=st.nodes, **(actions_kw or {}))
-            choice = plan_flop(belief, st, g, actions=acts, objective=objective, level=level, samples=samples,
+            choice = plan_flop(evidence.belief() if evidence else belief, st, g, actions=acts, objective=objective,
+                               level=level, samples=samples,
                                seed=seed + k, threshold=threshold, radius=radius, horizon=horizon, pool=pool)
             before = robot.centre
             out = robot.execute(choice.action, choice.rollouts.plans[choice.index])
-            after = robot.centre
-            steps.append(PlanStep(choice, out, before, after, float(np.linalg.norm(after - g))))
-            if steps[-1].distance <= radius:
+            after, distance = robot.centre, float(np.linalg.norm(robot.centre - g))
+            done = distance <= radius or k == int(max_steps) - 1
+            entropy = evidence.update(choice.action, st, out, pool=pool) if evidence and not done else None
+            steps.append(PlanStep(choice, out, before, after, distance, entropy))
+            if distance <= radius:
                 break
     finally:
         if own:
