@@ -19,7 +19,8 @@ def test_plan_writes_record_and_figure(make_belief, tmp_path, capsys) -> None:
                  str(tmp_path / "out")])
     assert code == 0, capsys.readouterr().err
     record = json.loads((tmp_path / "out" / "plan.json").read_text())
-    assert len(record["runs"]["robust"]["steps"]) == 1 and record["level"] == 0.2
+    assert len(record["runs"]["robust"]["steps"]) == 1 and record["level"] == 0.2 and record["learn"] is True
+    assert record["runs"]["robust"]["steps"][0]["entropy"] is None       # no update after the last flop
     assert (tmp_path / "out" / "plan.png").stat().st_size > 5000
     assert "robust:" in capsys.readouterr().out
 
