@@ -18,9 +18,8 @@ with L the median length of the flops in the rollout set that changed face and �
 second flops that reach the disc, the one that lands deepest wins). A landing in the disc needs
 nothing more; one from which a flop reaches the disc needs one; else at least two, and the
 distance left after the best next flop, in flop lengths, ranks them. Staying put (a nudge, a
-failed flop) costs a flop and leaves the same next flops, so a nudge is never worth more than the
-best flop it delays; a form that credited the distance left after a nudge as a fraction of a flop
-let repeated nudges outscore a flop that needs one more after it. Without simulated next flops (``nxt`` None) Δ₂(f, e) = L n_e, n_e the outward normal of
+failed flop) costs a whole flop, and the few centimetres it gains count only through the flop
+after it. Without simulated next flops (``nxt`` None) Δ₂(f, e) = L n_e, n_e the outward normal of
 edge e (:func:`planners.actions.face_headings`). Not "ok" outcomes count as staying at c₀.
 """
 from __future__ import annotations

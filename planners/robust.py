@@ -268,8 +268,8 @@ def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal:
             st = robot.observe()
             acts = candidate_actions(nodes=st.nodes, **(actions_kw or {}))
             choice = plan_flop(evidence.belief() if evidence else belief, st, g, actions=acts, objective=objective,
-                               level=level, samples=samples,
-                               seed=seed + k, threshold=threshold, radius=radius, horizon=horizon, pool=pool)
+                               level=level, samples=samples, seed=seed + k, threshold=threshold, radius=radius,
+                               horizon=horizon, pool=pool)
             before = robot.centre
             out = robot.execute(choice.action, choice.rollouts.plans[choice.index])
             after, distance = robot.centre, float(np.linalg.norm(robot.centre - g))
