@@ -27,3 +27,15 @@ def belief4() -> Belief:
 def make_belief():
     """Factory: tiny_belief(n, p, seed)."""
     return tiny_belief
+
+
+@pytest.fixture
+def dynamic_cells() -> Belief:
+    """Three cells that differ only in parameters that act on motion (damping, motor speed, ±10 %):
+    at rest, and while barely moving, they look alike; a flop tells them apart."""
+    space = ParameterSpace.t6()
+    b = tiny_belief(3)
+    theta = np.tile(space.nominal, (3, 1))
+    theta[:, space.names.index("damping")] = [180.0, 200.0, 220.0]
+    theta[:, space.names.index("targetVelocity")] = [1.35, 1.5, 1.65]
+    return Belief(b.P, theta, space, decoder_config=b.decoder_config, grid_config=b.grid_config)

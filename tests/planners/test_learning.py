@@ -5,25 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from belief.belief import Belief
-from physics.parameters import ParameterSpace
 from planners import FlopAction, PlannerError, PointBelief, SimulatedRobot, plan_to_goal
 from planners.learning import FlopEvidence
 from planners.rollouts import plan_cables
 
 
-def _three_cells(make_belief) -> Belief:
-    """Three cells 10 % apart in damping and motor speed: they flop alike but not identically."""
-    space = ParameterSpace.t6()
-    b = make_belief(3)
-    theta = np.tile(space.nominal, (3, 1))
-    theta[:, space.names.index("damping")] = [180.0, 200.0, 220.0]
-    theta[:, space.names.index("targetVelocity")] = [1.35, 1.5, 1.65]
-    return Belief(b.P, theta, space, decoder_config=b.decoder_config, grid_config=b.grid_config)
-
-
-def test_an_executed_flop_moves_p_to_the_cell_that_predicted_it(make_belief) -> None:
-    b = _three_cells(make_belief)
+def test_an_executed_flop_moves_p_to_the_cell_that_predicted_it(dynamic_cells) -> None:
+    b = dynamic_cells
     robot = SimulatedRobot(b.theta[2])
     flop = FlopAction(0.3, 0.3, 4, stop=0.8, duration=1.0)
     ev = FlopEvidence(b, cells=3, how="top", sigma=0.005)
@@ -37,8 +25,8 @@ def test_an_executed_flop_moves_p_to_the_cell_that_predicted_it(make_belief) -> 
         FlopEvidence(b, sigma=0.0)
 
 
-def test_the_goal_planner_learns_from_each_flop_and_a_point_belief_does_not(make_belief) -> None:
-    b = _three_cells(make_belief)
+def test_the_goal_planner_learns_from_each_flop_and_a_point_belief_does_not(dynamic_cells) -> None:
+    b = dynamic_cells
     kw = dict(radius=0.3, max_steps=2, samples=2, horizon=1, progress=False,
               actions_kw={"changes": (0.3,), "n_cables": (4,), "stop": 0.8, "duration": 1.0})
     goal = SimulatedRobot(b.theta[2]).centre + [2.5, 0.0]

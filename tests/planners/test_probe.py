@@ -5,8 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from belief.belief import Belief
-from physics.parameters import ParameterSpace
 from planners import EmptyBeliefError, FlopAction, PlannerError, RobotStart, information_gain, probe, rollouts
 from planners.probe import noise_scale, observations, restricted_belief, support, update_weights
 
@@ -33,19 +31,8 @@ def test_update_moves_mass_to_the_nearest_prediction() -> None:
     assert w[1] == 0.0
 
 
-def _dynamic_cells(make_belief) -> Belief:
-    """Three cells that differ only in parameters that act on motion (damping, motor speed, ±10 %):
-    at rest, and while barely moving, they look alike."""
-    space = ParameterSpace.t6()
-    b = make_belief(3)
-    theta = np.tile(space.nominal, (3, 1))
-    theta[:, space.names.index("damping")] = [180.0, 200.0, 220.0]
-    theta[:, space.names.index("targetVelocity")] = [1.35, 1.5, 1.65]
-    return Belief(b.P, theta, space, decoder_config=b.decoder_config, grid_config=b.grid_config)
-
-
-def test_separating_probe_gains_more_and_the_update_finds_the_true_cell(make_belief) -> None:
-    b = _dynamic_cells(make_belief)
+def test_separating_probe_gains_more_and_the_update_finds_the_true_cell(dynamic_cells) -> None:
+    b = dynamic_cells
     flop = FlopAction(0.3, 0.3, 4, stop=0.8, duration=1.0)
     hold = FlopAction(0.3, 0.01, 1, stop=0.3, duration=1.0)       # barely moves
     F, ok = observations(rollouts([flop, hold], RobotStart.settled(), b.theta))
