@@ -7,8 +7,7 @@ budget); then
 1. Planning: from the robot's resting start, a goal ``--distance`` m away in a seeded direction.
    Three planners flop the robot at θ* toward it, replanning after each flop, until within
    ``--radius`` or ``--steps`` flops: the robust plan (CVaR_α under K draws of the belief, P
-   re-weighed by each executed flop unless ``--fixed``; ``--fixed-too`` adds the robust plan on the
-   fixed P), the plan at the nominal θ and the plan at the belief's MAP θ. Printed: the rate of
+   re-weighed by each executed flop with ``--learn``), the plan at the nominal θ and the plan at the belief's MAP θ. Printed: the rate of
    runs that reached the goal, the mean number of flops and the mean final distance.
 2. Probing: M cells drawn from the belief are the hypotheses. Active probing (largest expected
    information gain), random probing (a uniformly drawn candidate) and repeating the default flop
@@ -62,7 +61,7 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
         b = {"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)}.get(name, belief)
         run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=args.level,
                            objective=args.objective, samples=args.samples, seed=seed, horizon=args.horizon,
-                           learn=name == "robust" and not args.fixed, pool=pool, progress=False)
+                           learn=name == "robust" and args.learn, pool=pool, progress=False)
         out[name] = (run.reached, len(run.steps), run.final_distance)
         if args.verbose:
             print(f"  {name}: " + "; ".join(f"{st.choice.action.label} score {st.choice.scores[st.choice.index]:+.2f} "
@@ -71,9 +70,8 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
 
 
 def planner_names(args: argparse.Namespace) -> tuple[str, ...]:
-    """The planners compared: robust (P re-weighed by each flop unless ``--fixed``), nominal, MAP, and
-    with ``--fixed-too`` the robust plan on the fixed P as well."""
-    return ("robust",) + (("robust, P fixed",) if args.fixed_too else ()) + ("nominal", "MAP")
+    """The planners compared: robust (P re-weighed by each flop with ``--learn``), nominal, MAP."""
+    return ("robust", "nominal", "MAP")
 
 
 def held_out_errors(theta: np.ndarray, cells: np.ndarray, belief, seed: int) -> np.ndarray:
@@ -153,8 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--level", type=float, default=0.2)
     p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
     p.add_argument("--horizon", type=int, choices=[1, 2], default=2, help="1: progress; 2: flops to go (lookahead)")
-    p.add_argument("--fixed", action="store_true", help="the robust plan keeps P fixed (no re-weighing by flops)")
-    p.add_argument("--fixed-too", action="store_true", help="add the robust plan on the fixed P as a fourth planner")
+    p.add_argument("--learn", action="store_true", help="the robust plan re-weighs P by each executed flop")
     p.add_argument("--cells", type=int, default=12)
     p.add_argument("--probes", type=int, default=4)
     p.add_argument("--entropy", type=float, default=0.5)

@@ -2,14 +2,14 @@
 
 ::
 
-    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2] [--fixed] [--truth T] [--compare] --out DIR
+    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2] [--learn] [--truth T] [--compare] --out DIR
     tensegrid probe BELIEF.nc [--truth T] [--steps N] [--cells M] [--sigma S] [--targets NAME ...] --out DIR
 
 The robot is simulated at the truth T: ``nominal`` (default), a JSON file ({name: value} or 15
 numbers in the order of the T6 space) or a trajectory file (netCDF) that carries the θ it was
 simulated at. ``plan`` flops the robot to the goal, replanning after each flop under the belief
-re-weighed by the flops so far (``--fixed``: P kept as loaded; with ``--compare`` also under the
-nominal θ and the MAP θ) and writes ``plan.json`` and
+(``--learn``: re-weighed by the flops so far; with ``--compare`` also under the nominal θ and the
+MAP θ) and writes ``plan.json`` and
 ``plan.png``; ``probe`` runs active identification and writes ``probe.json``, ``probe.png`` and
 ``belief_probed.nc``.
 """
@@ -83,7 +83,7 @@ def register_plan(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("--horizon", type=int, choices=[1, 2], default=2,
                    help="1: progress of each flop; 2: flops to go, the next flop predicted (default 2)")
     p.add_argument("--steps", type=int, default=8, help="at most this many flops (default 8)")
-    p.add_argument("--fixed", action="store_true", help="keep P as loaded (default: re-weigh it by each executed flop)")
+    p.add_argument("--learn", action="store_true", help="re-weigh P by each executed flop (default: P as loaded)")
     p.add_argument("--compare", action="store_true", help="also plan with the nominal θ and the MAP θ")
     p.set_defaults(func=run_plan)
 
@@ -122,12 +122,12 @@ def run_plan(args: argparse.Namespace) -> int:
     os.makedirs(args.out, exist_ok=True)
     runs, record = {}, {"goal": list(args.goal), "truth": truth.tolist(), "objective": args.objective,
                         "level": args.level, "samples": args.samples, "radius": args.radius,
-                        "horizon": args.horizon, "learn": not args.fixed, "runs": {}}
+                        "horizon": args.horizon, "learn": args.learn, "runs": {}}
     with DaskPool(n_workers=args.workers) as pool:
         for name, b in planners.items():
             run = plan_to_goal(b, truth, args.goal, radius=args.radius, max_steps=args.steps, objective=args.objective,
                                level=args.level, samples=args.samples, seed=args.seed, horizon=args.horizon,
-                               learn=not args.fixed, pool=pool)
+                               learn=args.learn, pool=pool)
             runs[name] = run
             record["runs"][name] = {"reached": run.reached, "final_distance": run.final_distance,
                                     "steps": [_step_json(s) for s in run.steps]}

@@ -11,15 +11,13 @@ centre c₁ on face f then has the next landings c₂ = c₁ + Δ₂(f, e)::
 
     d(c)          = max(‖g − c‖ − r, 0)                               distance to the disc [m]
     flops_to_go   = 0                                   if d(c₁) = 0
-                  = 1 + ε min_e ‖g − c₂,e‖ / L         if min_e d(c₂,e) = 0
-                  = 2 + min_e d(c₂,e) / L               otherwise                     [flops]
+                  = 1 + min(d(c₁), min_e d(c₂,e)) / L + ε min_e ‖g − c₂,e‖ / L   otherwise   [flops]
 
 with L the median length of the flops in the rollout set that changed face and ε = 0.01 (among
-second flops that reach the disc, the one that lands deepest wins). A landing in the disc needs
-nothing more; one from which a flop reaches the disc needs one; else at least two, and the
-distance left after the best next flop, in flop lengths, ranks them. Staying put (a nudge, a
-failed flop) costs a whole flop, and the few centimetres it gains count only through the flop
-after it. Without simulated next flops (``nxt`` None) Δ₂(f, e) = L n_e, n_e the outward normal of
+second flops that all reach the disc, the one that lands deepest wins). A landing in the disc
+needs nothing more; one from which a flop reaches the disc needs one; else one plus the remaining
+distance in flop lengths. Staying put (a nudge, a failed flop) costs a flop, so it is no longer
+free. Without simulated next flops (``nxt`` None) Δ₂(f, e) = L n_e, n_e the outward normal of
 edge e (:func:`planners.actions.face_headings`). Not "ok" outcomes count as staying at c₀.
 """
 from __future__ import annotations
@@ -109,7 +107,6 @@ def flops_to_go(rs: RolloutSet, goal: np.ndarray, radius: float,
                 continue
             face, nodes = (tuple(rs.start.face), rs.start.nodes) if stays else (tuple(o.face), o.final.nodes)
             c2 = c1[None] + _second(face, np.asarray(nodes), L, nxt)
-            d2 = float(distance_to_disc(c2, g, radius).min())
             far = float(np.linalg.norm(g - c2, axis=1).min())
-            out[a, k] = 1.0 + TIE_BREAK * far / L if d2 == 0.0 else 2.0 + d2 / L
+            out[a, k] = 1.0 + min(d1, float(distance_to_disc(c2, g, radius).min())) / L + TIE_BREAK * far / L
     return out

@@ -18,7 +18,7 @@ Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score (
 
 :func:`plan_flop` picks the best candidate (ties: the first); :func:`plan_to_goal` repeats {plan
 under P, execute on the robot (hidden θ*), sense the new state, re-weigh P by the flop's recording
-(``learn``, :mod:`planners.learning`)} until the robot's centre is within ``radius`` of the goal or
+(``learn=True``, :mod:`planners.learning`)} until the robot's centre is within ``radius`` of the goal or
 ``max_steps`` flops were made. The nominal and MAP plans are the same
 planner on a :class:`PointBelief` (all mass on one θ).
 """
@@ -242,7 +242,7 @@ class GoalRun:
 def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal: Sequence[float], *,
                  radius: float = 0.5, max_steps: int = 8, objective: str = "cvar", level: float = 0.2,
                  samples: int = 16, seed: int = 0, threshold: float = 0.2, horizon: int = 2,
-                 learn: bool = True, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
+                 learn: bool = False, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
                  pool: DaskPool | None = None, n_workers: int = 0, progress: bool = True) -> GoalRun:
     """Flop to ``goal`` [m]: repeat {plan_flop under ``belief`` (seed + step), execute on ``robot``
     (a SimulatedRobot, or θ* to build one), sense} until within ``radius`` or ``max_steps`` flops.

@@ -15,7 +15,7 @@ def test_commands_are_registered_plugins() -> None:
 def test_plan_writes_record_and_figure(make_belief, tmp_path, capsys) -> None:
     path = tmp_path / "b.nc"
     make_belief(2).save(path)
-    code = main(["plan", str(path), "--goal", "1.5", "0.0", "--samples", "2", "--steps", "1", "--out",
+    code = main(["plan", str(path), "--goal", "1.5", "0.0", "--samples", "2", "--steps", "1", "--learn", "--out",
                  str(tmp_path / "out")])
     assert code == 0, capsys.readouterr().err
     record = json.loads((tmp_path / "out" / "plan.json").read_text())

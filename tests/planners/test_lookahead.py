@@ -42,8 +42,8 @@ def test_flops_to_go_formula() -> None:
     h = face_headings(rs.start.nodes)
     c1 = np.array([0.05, 0.0])
     nxt = c1 + L * np.column_stack([np.cos(h), np.sin(h)])
-    d2 = distance_to_disc(nxt, goal, r).min()
-    expected_nudge = 2 + d2 / L if d2 > 0 else 1 + TIE_BREAK * np.linalg.norm(goal - nxt, axis=1).min() / L
+    expected_nudge = (1 + min(float(distance_to_disc(c1, goal, r)), distance_to_disc(nxt, goal, r).min()) / L
+                      + TIE_BREAK * np.linalg.norm(goal - nxt, axis=1).min() / L)
     assert flops_to_go(rs, goal, r)[0] == pytest.approx([0.0, 0.0, expected_nudge])
     assert flop_length(_set([[(0.05, False)]])) == DEFAULT_FLOP_LENGTH
     with pytest.raises(PlannerError, match="radius"):
