@@ -7,8 +7,9 @@ budget); then
 1. Planning: from the robot's resting start, a goal ``--distance`` m away in a seeded direction.
    Three planners flop the robot at θ* toward it, replanning after each flop, until within
    ``--radius`` or ``--steps`` flops: the robust plan (CVaR_α under K draws of the belief, P
-   re-weighed by each executed flop with ``--learn``), the plan at the nominal θ and the plan at the belief's MAP θ. Printed: the rate of
-   runs that reached the goal, the mean number of flops and the mean final distance.
+   re-weighed by each executed flop with ``--learn``), the plan at the nominal θ and the plan at
+   the belief's MAP θ. Printed: the rate of runs that reached the goal, the mean number of flops
+   and the mean final distance.
 2. Probing: M cells drawn from the belief are the hypotheses. Active probing (largest expected
    information gain), random probing (a uniformly drawn candidate) and repeating the default flop
    (heading 0, change 0.2, 4 cables) each run ``--probes`` experiments on a fresh robot at θ*.
@@ -37,6 +38,8 @@ from physics.pool import DaskPool
 from planners import FlopAction, PointBelief, SimulatedRobot, plan_to_goal, probe
 from planners.rollouts import warm_up
 
+#: the planners compared (the robust one re-weighs P by each flop with ``--learn``)
+PLANNERS = ("robust", "nominal", "MAP")
 DEFAULT_FLOP = FlopAction(0.0, 0.2, 4, start=0.2, stop=1.2, duration=1.5)
 
 
@@ -57,7 +60,7 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
     angle = np.random.default_rng(seed + 7).uniform(0, 2 * np.pi)
     goal = robot0.centre + args.distance * np.array([np.cos(angle), np.sin(angle)])
     out = {}
-    for name in planner_names(args):
+    for name in PLANNERS:
         b = {"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)}.get(name, belief)
         run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=args.level,
                            objective=args.objective, samples=args.samples, seed=seed, horizon=args.horizon,
@@ -67,11 +70,6 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
             print(f"  {name}: " + "; ".join(f"{st.choice.action.label} score {st.choice.scores[st.choice.index]:+.2f} "
                                             f"-> {st.distance:.2f} m" for st in run.steps), flush=True)
     return out
-
-
-def planner_names(args: argparse.Namespace) -> tuple[str, ...]:
-    """The planners compared: robust (P re-weighed by each flop with ``--learn``), nominal, MAP."""
-    return ("robust", "nominal", "MAP")
 
 
 def held_out_errors(theta: np.ndarray, cells: np.ndarray, belief, seed: int) -> np.ndarray:
@@ -119,7 +117,7 @@ def _print_plans(plans: list[dict], args: argparse.Namespace) -> None:
           f"K = {args.samples} draws, robust objective {args.objective}, α = {args.level:g}, horizon {args.horizon}), "
           f"{n} seeds")
     print(f"{'planner':<16}{'reached':>10}{'rate':>7}{'mean flops':>12}{'mean final distance [m]':>26}")
-    for name in planner_names(args):
+    for name in PLANNERS:
         r = [p[name] for p in plans]
         print(f"{name:<16}{sum(x[0] for x in r):>7}/{n:<2}{np.mean([x[0] for x in r]):>7.2f}"
               f"{np.mean([x[1] for x in r]):>12.2f}{np.mean([x[2] for x in r]):>26.2f}")
