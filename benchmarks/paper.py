@@ -10,8 +10,10 @@ the score is E on two *held-out* flops with other actuations (30 % change of 4 c
 a flop toward another heading alone is nearly the same motion rotated) at the best θ so far. Every method gets the same number of
 evaluations and is timed, so the held-out error is reported against evaluations and against wall
 time (benchmarks/paper_methods.py lists the methods). Trained decoders (VAE, the dynamics-aware
-autoencoder without and with its centre prior, the active subspace) are trained once and cached
-under .cache/tensegrid/paper/.
+autoencoder without and with its centre prior, the active subspace, and ``ae-cf-5``: the
+autoencoder trained through a network on the counterfactual target, what θ changes against the
+nominal θ from the same state, embeddings.t6_data) are trained once and cached under
+.cache/tensegrid/paper/.
 
 Each (problem, method) appends one JSON row to ``--out``/paper.jsonl, and a (problem, method) that
 already has its row there is skipped, so an interrupted run resumes; ``--summarize`` prints
@@ -36,7 +38,7 @@ from paper_methods import PEERS, Recorder, run_botorch, run_cma  # noqa: E402
 from paper_report import summarize  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-TRAINED = ("vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5")
+TRAINED = ("vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5")
 METHODS = ("random-15", "bo-15", "rembo-5", *TRAINED, *PEERS)
 #: the Settings fields the trained decoders depend on (the cache key)
 TRAINING_FIELDS = ("duration", "vae_samples", "vae_epochs", "trajectories", "summary", "dyn_epochs", "ae_epochs",
@@ -108,16 +110,19 @@ def train_decoders(space: Any, settings: Settings, cache: Path) -> dict[str, Any
     return decoders
 
 
-def dynamics_network(space: Any, settings: Settings, cache: Path, folder: Path) -> tuple[Any, Any, Any]:
+def dynamics_network(space: Any, settings: Settings, cache: Path, folder: Path, *,
+                     counterfactual: bool = False) -> tuple[Any, Any, Any]:
     """(network, train, test): the T6 transition set split by trajectory and the network trained on it
-    (cached as ``folder/dynamics.json``; its held-out score is printed and kept in dynamics_score.json)."""
+    (cached as ``folder/dynamics.json``, or ``dynamics-cf.json`` on the counterfactual target, what θ
+    changes against the nominal θ from the same state; its held-out score is printed and kept)."""
     from embeddings import DynamicsNetwork, T6DataConfig, TrainingConfig, t6_transitions
 
     data = t6_transitions(T6DataConfig(n_trajectories=settings.trajectories, duration=settings.duration,
-                                       summary=settings.summary), space=space, cache_dir=cache,
-                          workers=settings.workers)
+                                       summary=settings.summary, counterfactual=counterfactual), space=space,
+                          cache_dir=cache, workers=settings.workers)
     train, test = data.split(0.2, seed=0)
-    path = folder / "dynamics.json"
+    tag = "-cf" if counterfactual else ""
+    path = folder / f"dynamics{tag}.json"
     if path.exists():
         return DynamicsNetwork.load(path, space), train, test
     dynamics = DynamicsNetwork(space).fit(train, training=TrainingConfig(epochs=settings.dyn_epochs), progress=True)
@@ -125,7 +130,7 @@ def dynamics_network(space: Any, settings: Settings, cache: Path, folder: Path) 
     print(f"dynamics network: held-out MSE {score.mse:.3g} vs {score.baseline_mse:.3g} for the mean "
           f"(ratio {score.ratio:.3f}, {len(set(test.group))} held-out trajectories)")
     dynamics.save(path)
-    (folder / "dynamics_score.json").write_text(json.dumps(asdict(score)))
+    (folder / f"dynamics{tag}_score.json").write_text(json.dumps(asdict(score)))
     return dynamics, train, test
 
 
@@ -133,7 +138,7 @@ def _dynamics_decoder(name: str, space: Any, settings: Settings, cache: Path, fo
     """The decoder ``name`` trained through the (cached) dynamics network."""
     from embeddings import ActiveSubspace, DynamicsAutoencoder, TrainingConfig
 
-    dynamics, train, _ = dynamics_network(space, settings, cache, folder)
+    dynamics, train, _ = dynamics_network(space, settings, cache, folder, counterfactual=name == "ae-cf-5")
     if name == "active-5":
         active = ActiveSubspace.fit(space, dynamics, train, dim=5)
         print(f"{active!r}")

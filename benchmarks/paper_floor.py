@@ -10,7 +10,8 @@ Prints
   held-out error (``DynamicsNetwork.theta_visibility``); s < e means a loss through the network
   cannot tell θ apart better than the network's own error; with ``--chain m ...`` the same for a
   centre-of-mass target m times further ahead, made by chaining the cached rows (a row's target
-  plus those of the rows one horizon, two horizons ... later), each with its own network;
+  plus those of the rows one horizon, two horizons ... later), each with its own network; and the
+  same for the network on the counterfactual target (what θ changes against the nominal θ);
 * per decoder and truth (nominal, then draws inside the box as in paper.py): the largest parameter
   error of decode(encode(θ*)) in %, the fitting error E there, and E at the latent grid point
   nearest to encode(θ*) (the search's resolution), next to E(θ*) itself. A decoder whose
@@ -65,6 +66,11 @@ def visibility(space, settings: Settings, cache: Path, chain: list[int]) -> None
         s, e = dynamics.theta_visibility(held)
         print(f"dynamics network ({settings.summary} target {m * config.horizon} samples ahead), held-out: "
               f"θ-induced variance s = {s:.3g}, error e = {e:.3g} (standardized), s/e = {s / e:.2f}", flush=True)
+    counterfactual, _, held = dynamics_network(space, settings, cache, cache_folder(settings, cache),
+                                               counterfactual=True)
+    s, e = counterfactual.theta_visibility(held)
+    print(f"dynamics network (counterfactual {settings.summary} target, θ against nominal, {config.horizon} samples "
+          f"ahead), held-out: s = {s:.3g}, e = {e:.3g}, s/e = {s / e:.2f}", flush=True)
 
 
 def main() -> None:

@@ -5,7 +5,7 @@ evaluation (θ, E, seconds since the method started) whatever way the method cal
 methods are scored the same way: best-so-far θ after n evaluations or t seconds.
 
 * ``random-15``, ``bo-15``: belief.identify with the Identity decoder on Sobol candidates.
-* ``rembo-5``, ``vae-5``, ``ae-dyn-5``, ``ae-dyn-prior-5``, ``active-5``: belief.identify (BO) on a regular grid over
+* ``rembo-5``, ``vae-5``, ``ae-dyn-5``, ``ae-dyn-prior-5``, ``active-5``, ``ae-cf-5``: belief.identify (BO) on a grid over
   the decoder's 5-D latent box.
 * ``cma-es``: the ``cma`` package in the unit cube (x0 = centre, σ0 = 0.3, default population).
 * ``botorch``: a SingleTaskGP on -log E with qLogEI (q = 1), Sobol initial design of the same

@@ -5,10 +5,10 @@ Per seed s: a hidden θ* drawn in the T6's ±10 % box; a belief from a short ide
 budget); then
 
 1. Planning: from the robot's resting start, a goal ``--distance`` m away in a seeded direction.
-   Three planners flop the robot at θ* toward it, replanning after each flop, until within
-   ``--radius`` or ``--steps`` flops: the robust plan (CVaR_α under K draws of the belief, P
-   re-weighed by each executed flop with ``--learn``), the plan at the nominal θ and the plan at
-   the belief's MAP θ. Printed: the rate of runs that reached the goal, the mean number of flops
+   The planners flop the robot at θ* toward it, replanning after each flop, until within
+   ``--radius`` or ``--steps`` flops: one robust plan per level α of ``--levels`` (CVaR_α under K
+   draws of the belief, P re-weighed by each executed flop with ``--learn``), the plan at the
+   nominal θ and the plan at the belief's MAP θ. Printed: the rate of runs that reached the goal, the mean number of flops
    and the mean final distance.
 2. Probing: M cells drawn from the belief are the hypotheses. Active probing (largest expected
    information gain), random probing (a uniformly drawn candidate) and repeating the default flop
@@ -22,12 +22,15 @@ budget); then
 Run::
 
     .venv/bin/python benchmarks/planning.py --seeds 4            # the modest size of the README
+    .venv/bin/python benchmarks/planning.py --seeds 8 --parts plan --levels 0.2 0.5 --learn   # risk levels
     .venv/bin/python benchmarks/planning.py --quick              # smoke run (1 seed, tiny)
 """
 from __future__ import annotations
 
 import argparse
+import json
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -38,8 +41,13 @@ from physics.pool import DaskPool
 from planners import FlopAction, PointBelief, SimulatedRobot, plan_to_goal, probe
 from planners.rollouts import warm_up
 
-#: the planners compared (the robust one re-weighs P by each flop with ``--learn``)
-PLANNERS = ("robust", "nominal", "MAP")
+#: the point-belief planners every robust planner is compared with
+POINT_PLANNERS = ("nominal", "MAP")
+
+
+def planner_names(levels: list[float]) -> list[str]:
+    """One robust planner per CVaR level α (``robust α=0.2``), then the point planners."""
+    return [f"robust α={a:g}" for a in levels] + list(POINT_PLANNERS)
 DEFAULT_FLOP = FlopAction(0.0, 0.2, 4, start=0.2, stop=1.2, duration=1.5)
 
 
@@ -60,12 +68,13 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
     angle = np.random.default_rng(seed + 7).uniform(0, 2 * np.pi)
     goal = robot0.centre + args.distance * np.array([np.cos(angle), np.sin(angle)])
     out = {}
-    for name in PLANNERS:
+    for name, level in zip(planner_names(args.levels), list(args.levels) + [1.0] * len(POINT_PLANNERS)):
         b = {"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)}.get(name, belief)
-        run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=args.level,
+        robust = name not in POINT_PLANNERS
+        run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=level,
                            objective=args.objective, samples=args.samples, seed=seed, horizon=args.horizon,
-                           learn=name == "robust" and args.learn, pool=pool, progress=False)
-        out[name] = (run.reached, len(run.steps), run.final_distance)
+                           learn=robust and args.learn, pool=pool, progress=False)
+        out[name] = (bool(run.reached), len(run.steps), float(run.final_distance))
         if args.verbose:
             print(f"  {name}: " + "; ".join(f"{st.choice.action.label} score {st.choice.scores[st.choice.index]:+.2f} "
                                             f"-> {st.distance:.2f} m" for st in run.steps), flush=True)
@@ -114,10 +123,10 @@ def _print_tables(plans: list[dict], probes: list[dict], args: argparse.Namespac
 def _print_plans(plans: list[dict], args: argparse.Namespace) -> None:
     n = len(plans)
     print(f"\nPlanning to a goal {args.distance:g} m away (radius {args.radius:g} m, at most {args.steps} flops, "
-          f"K = {args.samples} draws, robust objective {args.objective}, α = {args.level:g}, horizon {args.horizon}), "
+          f"K = {args.samples} draws, robust objective {args.objective}, learning {'on' if args.learn else 'off'}, horizon {args.horizon}), "
           f"{n} seeds")
     print(f"{'planner':<16}{'reached':>10}{'rate':>7}{'mean flops':>12}{'mean final distance [m]':>26}")
-    for name in PLANNERS:
+    for name in planner_names(args.levels):
         r = [p[name] for p in plans]
         print(f"{name:<16}{sum(x[0] for x in r):>7}/{n:<2}{np.mean([x[0] for x in r]):>7.2f}"
               f"{np.mean([x[1] for x in r]):>12.2f}{np.mean([x[2] for x in r]):>26.2f}")
@@ -137,7 +146,23 @@ def _print_probes(probes: list[dict], args: argparse.Namespace) -> None:
               f"{np.mean([x[2] for x in r]):>15.2f}{np.mean([x[3] for x in r]):>16.3f}")
 
 
-def main(argv: list[str] | None = None) -> int:
+def _settings_key(args: argparse.Namespace) -> dict:
+    """The settings a journal row depends on (rows made with others are not reused)."""
+    names = ("distance", "radius", "steps", "samples", "levels", "objective", "horizon", "learn", "cells", "probes",
+             "entropy", "tolerance", "candidates", "budget")
+    return {n: getattr(args, n) for n in names}
+
+
+def _journal(path: str | None, args: argparse.Namespace) -> dict[int, dict]:
+    """{seed: row} of the rows in ``path`` made with these settings and these parts."""
+    if path is None or not Path(path).exists():
+        return {}
+    rows = [json.loads(line) for line in Path(path).read_text().splitlines() if line.strip()]
+    key = _settings_key(args)
+    return {r["seed"]: r for r in rows if r["settings"] == key and set(args.parts) <= set(r["parts"])}
+
+
+def _arguments(argv: list[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seeds", type=int, default=4)
     p.add_argument("--quick", action="store_true", help="1 seed, tiny sizes (smoke run)")
@@ -146,7 +171,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--radius", type=float, default=0.5)
     p.add_argument("--steps", type=int, default=6)
     p.add_argument("--samples", type=int, default=8)
-    p.add_argument("--level", type=float, default=0.2)
+    p.add_argument("--levels", type=float, nargs="+", default=[0.2],
+                   help="CVaR levels α: one robust planner per level (the nominal and MAP plans do not depend on it)")
     p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
     p.add_argument("--horizon", type=int, choices=[1, 2], default=2, help="1: progress; 2: flops to go (lookahead)")
     p.add_argument("--learn", action="store_true", help="the robust plan re-weighs P by each executed flop")
@@ -159,23 +185,35 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--verbose", action="store_true", help="print every flop of every plan")
     p.add_argument("--parts", nargs="+", choices=["plan", "probe"], default=["plan", "probe"],
                    help="which tables to compute (default both)")
+    p.add_argument("--out", default=None, help="journal (JSON lines, one row per seed): a rerun with the same "
+                                               "settings skips the seeds it holds and prints the table of all")
     args = p.parse_args(argv)
     if args.quick:
         args.seeds, args.steps, args.samples, args.cells, args.probes = 1, 2, 2, 4, 1
         args.candidates, args.budget, args.distance = 256, 8, 1.0
-    space, plans, probes = ParameterSpace.t6(), [], []
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _arguments(argv)
+    space, done = ParameterSpace.t6(), _journal(args.out, args)
     t0 = time.perf_counter()
     with DaskPool(n_workers=args.workers, warm_up=warm_up) as pool:
-        for s in range(args.seeds):
+        for s in (s for s in range(args.seeds) if s not in done):
             theta = space.sample(1, seed=1000 + s)[0]
             belief = make_belief(theta, s, candidates=args.candidates, budget=args.budget)
-            plans.append(planning_runs(belief, theta, s, args, pool) if "plan" in args.parts else {})
-            probes.append(probing_runs(belief, theta, s, args, pool) if "probe" in args.parts else {})
-            print(f"seed {s}: plans {plans[-1]}\n        probes {probes[-1]}  ({time.perf_counter() - t0:.0f} s)",
-                  flush=True)
-    _print_tables(plans, probes, args)
+            row = {"seed": s, "settings": _settings_key(args), "parts": list(args.parts),
+                   "plans": planning_runs(belief, theta, s, args, pool) if "plan" in args.parts else {},
+                   "probes": probing_runs(belief, theta, s, args, pool) if "probe" in args.parts else {}}
+            done[s] = row
+            if args.out:
+                with open(args.out, "a") as fh:
+                    fh.write(json.dumps(row) + "\n")
+            print(f"seed {s}: plans {row['plans']}\n        probes {row['probes']}  "
+                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
+    rows = [done[s] for s in range(args.seeds)]
+    _print_tables([r["plans"] for r in rows], [r["probes"] for r in rows], args)
     return 0
-
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -9,7 +9,15 @@ nominal, as in the paper) and a flop heading uniformly in [0, 2π), settles, and
              "com_height": z of com_{i+h} - z of com_i            (1)  [m]  (the paper's summary)
              "nodes":      nodes_{i+h} - nodes_i                  (36) [m]
 
-with h = ``horizon`` samples. Simulations run on the :class:`~physics.pool.DaskPool` (the
+with h = ``horizon`` samples. With ``counterfactual=True`` the target is what θ changes in that
+summary instead: both displacements are predicted from the recorded state x_i with the recorded
+controls (the one-step machinery of :mod:`physics.predictor`, h samples ahead), once under θ and
+once under the nominal θ₀, and the target is the summary of
+
+    x̂_{i+h}(θ) - x̂_{i+h}(θ₀)                                  (12 x 3)  [m]
+
+The state and the action then explain none of the target's variance, so all that a network
+learns from it is θ's effect: the quantity a trajectory error sees. Simulations run on the :class:`~physics.pool.DaskPool` (the
 objective's batch machinery), one item per trajectory, with a progress bar; a trajectory that
 diverges is dropped and counted (``attrs["diverged"]``). The set is written to
 ``cache_dir/t6-transitions-<sha256 of the settings>.nc`` (netCDF) and read from there next time.
@@ -47,6 +55,7 @@ class T6DataConfig:
     horizon: int = 10
     summary: str = "com"
     seed: int = 0
+    counterfactual: bool = False
 
     def __post_init__(self) -> None:
         for name in ("n_trajectories", "stride", "horizon"):
@@ -60,8 +69,33 @@ class T6DataConfig:
                                  f"{self.horizon} samples; lengthen duration or shorten horizon.")
 
 
-def _features(ds: Any, config: T6DataConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(context (m, 96), target (m, k)) of one simulated trajectory (module docstring)."""
+def _summarize(displacement: np.ndarray, summary: str) -> np.ndarray:
+    """Target (m, k) of node displacements (m, 12, 3): the centre of mass's (3), its height's (1) or all (36)."""
+    if summary == "com":
+        return displacement.mean(axis=1)
+    if summary == "com_height":
+        return displacement.mean(axis=1)[:, 2:]
+    return displacement.reshape(len(displacement), -1)
+
+
+def _counterfactual(ds: Any, theta: np.ndarray, space: ParameterSpace, rows: np.ndarray, horizon: int) -> np.ndarray:
+    """x̂_{i+h}(θ) - x̂_{i+h}(θ₀) (m, 12, 3): both predicted from the recorded state at each row."""
+    from physics.predictor import ObservedStates, actuator_states, predict
+    from physics.tensegrity import T6Model
+
+    obs = ObservedStates(ds)
+    out = np.zeros((len(rows), 12, 3))
+    for sign, point in ((1.0, theta), (-1.0, space.nominal)):
+        model = T6Model(point, space=space)
+        rest, speed = actuator_states(obs, model)
+        for j, i in enumerate(rows):
+            out[j] += sign * predict(model, obs, int(i), horizon, rest, speed)[-1]
+    return out
+
+
+def _features(ds: Any, config: T6DataConfig, theta: np.ndarray | None = None,
+              space: ParameterSpace | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(context (m, 96), target (m, k)) of one trajectory simulated at θ (module docstring)."""
     nodes = ds["nodes"].values                       # (T, 12, 3)
     vel = ds["velocities"].values
     controls = ds["controls"].values                 # (T, 24)
@@ -69,14 +103,11 @@ def _features(ds: Any, config: T6DataConfig) -> tuple[np.ndarray, np.ndarray]:
     rows = np.arange(0, len(nodes) - config.horizon, config.stride)
     centred = nodes[rows] - np.concatenate([com[rows, :2], np.zeros((len(rows), 1))], axis=1)[:, None, :]
     context = np.concatenate([centred.reshape(len(rows), -1), vel[rows].reshape(len(rows), -1), controls[rows]], axis=1)
-    ahead = rows + config.horizon
-    if config.summary == "com":
-        target = com[ahead] - com[rows]
-    elif config.summary == "com_height":
-        target = (com[ahead, 2] - com[rows, 2])[:, None]
+    if config.counterfactual:
+        displacement = _counterfactual(ds, theta, space, rows, config.horizon)
     else:
-        target = (nodes[ahead] - nodes[rows]).reshape(len(rows), -1)
-    return context, target
+        displacement = nodes[rows + config.horizon] - nodes[rows]
+    return context, _summarize(displacement, config.summary)
 
 
 def _simulate_one(payload: tuple[ParameterSpace, T6DataConfig], item: tuple[int, np.ndarray, float]) -> Any:
@@ -92,7 +123,10 @@ def _simulate_one(payload: tuple[ParameterSpace, T6DataConfig], item: tuple[int,
                       sample_rate=config.sample_rate, space=space, record_velocities=True)
     except PhysicsError as exc:
         return str(exc)
-    return _features(ds, config)
+    try:
+        return _features(ds, config, theta, space)
+    except PhysicsError as exc:
+        return str(exc)
 
 
 def _names(config: T6DataConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -101,12 +135,17 @@ def _names(config: T6DataConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
         tuple(f"vel{j}_{a}" for j in range(12) for a in axes) + tuple(f"control{c}" for c in range(24))
     target = {"com": tuple(f"dcom_{a}" for a in axes), "com_height": ("dcom_z",),
               "nodes": tuple(f"dnode{j}_{a}" for j in range(12) for a in axes)}[config.summary]
+    if config.counterfactual:
+        target = tuple(f"{name}_vs_nominal" for name in target)
     return context, target
 
 
 def cache_path(space: ParameterSpace, config: T6DataConfig, cache_dir: "str | os.PathLike[str]") -> Path:
     """``cache_dir/t6-transitions-<key>.nc``: the key hashes the settings and the parameter box."""
-    key = json.dumps({"config": asdict(config), "names": list(space.names), "lower": space.lower.tolist(),
+    settings = asdict(config)
+    if not settings["counterfactual"]:          # absent when off, so the sets cached before it keep their key
+        del settings["counterfactual"]
+    key = json.dumps({"config": settings, "names": list(space.names), "lower": space.lower.tolist(),
                       "upper": space.upper.tolist(), "format": 1}, sort_keys=True)
     return Path(cache_dir) / f"t6-transitions-{hashlib.sha256(key.encode()).hexdigest()[:16]}.nc"
 

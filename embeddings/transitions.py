@@ -88,7 +88,8 @@ class Transitions:
              "target": (("row", "output"), self.target), "group": (("row",), self.group.astype(np.int64))},
             coords={"parameter": list(self.parameter_names), "feature": list(self.context_names),
                     "output": list(self.target_names)},
-            attrs={k: (str(v) if not isinstance(v, (int, float, str)) else v) for k, v in self.attrs.items()},
+            attrs={k: (int(v) if isinstance(v, bool) else v if isinstance(v, (int, float, str)) else str(v))
+                   for k, v in self.attrs.items()},
         )
 
     def save(self, path: "str | os.PathLike[str]") -> Path:

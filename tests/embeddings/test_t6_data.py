@@ -45,6 +45,26 @@ def test_dynamics_network_beats_the_mean_on_held_out_trajectories(small_set) -> 
     assert score.ratio < 0.5
 
 
+def test_counterfactual_target_is_what_theta_changes(tmp_path) -> None:
+    """At the nominal θ the counterfactual target is exactly zero; elsewhere it is not, and the set caches
+    under its own key."""
+    from embeddings.t6_data import _features
+    from physics import FlopController, simulate
+
+    config = T6DataConfig(n_trajectories=2, duration=0.5, stride=10, horizon=10, counterfactual=True)
+    for theta, zero in ((SPACE.nominal, True), (SPACE.sample(1, seed=3)[0], False)):
+        ds = simulate(theta, controller=FlopController(heading=0.7), duration=0.5, space=SPACE)
+        context, target = _features(ds, config, theta, SPACE)
+        assert target.shape == (len(context), 3) and np.all(np.isfinite(target))
+        assert (np.abs(target).max() == 0.0) == zero
+    data = t6_transitions(config, cache_dir=tmp_path, workers=0, progress=False)
+    plain = t6_transitions(T6DataConfig(n_trajectories=2, duration=0.5, stride=10, horizon=10), cache_dir=tmp_path,
+                           workers=0, progress=False)
+    assert data.target_names == ("dcom_x_vs_nominal", "dcom_y_vs_nominal", "dcom_z_vs_nominal")
+    assert np.array_equal(data.context, plain.context) and len(list(tmp_path.glob("*.nc"))) == 2
+    assert np.abs(data.target).mean() < np.abs(plain.target).mean()
+
+
 def test_bad_settings_are_refused() -> None:
     with pytest.raises(EmbeddingError, match="summary must be one of"):
         T6DataConfig(summary="energy")
