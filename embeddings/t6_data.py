@@ -10,14 +10,16 @@ nominal, as in the paper) and a flop heading uniformly in [0, 2π), settles, and
              "nodes":      nodes_{i+h} - nodes_i                  (36) [m]
 
 with h = ``horizon`` samples. With ``counterfactual=True`` the target is what θ changes in that
-summary instead: both displacements are predicted from the recorded state x_i with the recorded
-controls (the one-step machinery of :mod:`physics.predictor`, h samples ahead), once under θ and
-once under the nominal θ₀, and the target is the summary of
+summary instead, as a trajectory error sees it. A second θ' is drawn from the box per trajectory,
+independently of the θ that made it; from the recorded state x_i with the recorded controls
+(the one-step machinery of :mod:`physics.predictor`, h samples ahead) the motion is predicted
+once under θ' and once under the nominal θ₀, and the row is (θ', context_i, the summary of)
 
-    x̂_{i+h}(θ) - x̂_{i+h}(θ₀)                                  (12 x 3)  [m]
+    x̂_{i+h}(θ') - x̂_{i+h}(θ₀)                                 (12 x 3)  [m]
 
-The state and the action then explain none of the target's variance, so all that a network
-learns from it is θ's effect: the quantity a trajectory error sees. Simulations run on the :class:`~physics.pool.DaskPool` (the
+The state and the action explain none of θ' (a plain row's state shows its θ, the rod length in
+the node distances, so a network may read θ from the context and ignore its θ input), and the
+target is zero at θ₀, so all a network learns from θ' is θ's effect. Simulations run on the :class:`~physics.pool.DaskPool` (the
 objective's batch machinery), one item per trajectory, with a progress bar; a trajectory that
 diverges is dropped and counted (``attrs["diverged"]``). The set is written to
 ``cache_dir/t6-transitions-<sha256 of the settings>.nc`` (netCDF) and read from there next time.
@@ -95,7 +97,8 @@ def _counterfactual(ds: Any, theta: np.ndarray, space: ParameterSpace, rows: np.
 
 def _features(ds: Any, config: T6DataConfig, theta: np.ndarray | None = None,
               space: ParameterSpace | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(context (m, 96), target (m, k)) of one trajectory simulated at θ (module docstring)."""
+    """(context (m, 96), target (m, k)) of one simulated trajectory; ``theta`` is the θ' of a
+    counterfactual target (module docstring)."""
     nodes = ds["nodes"].values                       # (T, 12, 3)
     vel = ds["velocities"].values
     controls = ds["controls"].values                 # (T, 24)
@@ -110,21 +113,23 @@ def _features(ds: Any, config: T6DataConfig, theta: np.ndarray | None = None,
     return context, _summarize(displacement, config.summary)
 
 
-def _simulate_one(payload: tuple[ParameterSpace, T6DataConfig], item: tuple[int, np.ndarray, float]) -> Any:
-    """Rows of one trajectory, or the divergence message (a string) when the simulation fails."""
+def _simulate_one(payload: tuple[ParameterSpace, T6DataConfig],
+                  item: tuple[int, np.ndarray, float, np.ndarray]) -> Any:
+    """Rows of one trajectory (simulated at θ; targets of θ' when counterfactual), or the divergence
+    message (a string) when a simulation fails."""
     from physics.controllers import FlopController
     from physics.errors import PhysicsError
     from physics.simulate import simulate
 
     space, config = payload
-    _, theta, heading = item
+    _, theta, heading, probe = item
     try:
         ds = simulate(theta, controller=FlopController(heading=heading), duration=config.duration,
                       sample_rate=config.sample_rate, space=space, record_velocities=True)
     except PhysicsError as exc:
         return str(exc)
     try:
-        return _features(ds, config, theta, space)
+        return _features(ds, config, probe, space)
     except PhysicsError as exc:
         return str(exc)
 
@@ -169,7 +174,8 @@ def t6_transitions(config: T6DataConfig | None = None, *, space: ParameterSpace 
     rng = np.random.default_rng(config.seed)
     thetas = space.sample(config.n_trajectories, seed=rng)
     headings = rng.uniform(0.0, 2 * np.pi, config.n_trajectories)
-    items = [(k, thetas[k], float(headings[k])) for k in range(config.n_trajectories)]
+    probes = space.sample(config.n_trajectories, seed=rng) if config.counterfactual else thetas
+    items = [(k, thetas[k], float(headings[k]), probes[k]) for k in range(config.n_trajectories)]
     bar = tqdm(total=len(items), desc="simulating T6 transitions", disable=not progress)
     with DaskPool(n_workers=workers) as pool:
         results = pool.map_rows(_simulate_one, (space, config), items, on_result=lambda k, r: bar.update(1))
@@ -180,7 +186,7 @@ def t6_transitions(config: T6DataConfig | None = None, *, space: ParameterSpace 
                              f"first failure: {next((r for r in results if isinstance(r, str)), '')}")
     context_names, target_names = _names(config)
     data = Transitions(
-        np.concatenate([np.repeat(thetas[k][None], len(r[0]), axis=0) for k, r in kept]),
+        np.concatenate([np.repeat(probes[k][None], len(r[0]), axis=0) for k, r in kept]),
         np.concatenate([r[0] for _, r in kept]), np.concatenate([r[1] for _, r in kept]),
         np.concatenate([np.full(len(r[0]), k) for k, r in kept]), tuple(space.names), context_names,
         target_names, {"source": "t6_transitions", **asdict(config), "diverged": len(items) - len(kept)})

@@ -46,8 +46,8 @@ def test_dynamics_network_beats_the_mean_on_held_out_trajectories(small_set) -> 
 
 
 def test_counterfactual_target_is_what_theta_changes(tmp_path) -> None:
-    """At the nominal θ the counterfactual target is exactly zero; elsewhere it is not, and the set caches
-    under its own key."""
+    """At the nominal θ' the counterfactual target is exactly zero; elsewhere it is not; θ' is not the
+    θ that made the state; the set caches under its own key."""
     from embeddings.t6_data import _features
     from physics import FlopController, simulate
 
@@ -62,6 +62,7 @@ def test_counterfactual_target_is_what_theta_changes(tmp_path) -> None:
                            workers=0, progress=False)
     assert data.target_names == ("dcom_x_vs_nominal", "dcom_y_vs_nominal", "dcom_z_vs_nominal")
     assert np.array_equal(data.context, plain.context) and len(list(tmp_path.glob("*.nc"))) == 2
+    assert not np.array_equal(data.theta, plain.theta)          # θ' is drawn apart from the state's θ
     assert np.abs(data.target).mean() < np.abs(plain.target).mean()
 
 
