@@ -4,13 +4,14 @@
 
     tensegrid train-embedding vae    --out vae.json [--dim 5] [--samples 20000] [--epochs 100] [--seed 0]
     tensegrid train-embedding ae-dyn --out ae.json  [--dim 5] [--trajectories 1200] [--summary com]
-                                     [--workers 2] [--cache DIR] [--epochs 100] [--seed 0]
+                                     [--counterfactual] [--workers 2] [--cache DIR] [--epochs 100] [--seed 0]
     tensegrid train-embedding ae-dyn --toy push --dim 1 --out push-ae.json
 
 ``vae`` trains on θ drawn from the box. ``ae-dyn`` first simulates the transition set (cached in
 ``--cache``, default ``.cache/tensegrid`` or $TENSEGRID_CACHE), trains the dynamics network on
 80 % of its trajectories and prints its held-out error against predicting the mean, then trains
-the autoencoder through it. The decoder file is JSON (weights and their sha256 included); the
+the autoencoder through it. With ``--counterfactual`` the network predicts what θ changes against the
+nominal θ from the same state (embeddings.t6_data), which it resolves far better. The decoder file is JSON (weights and their sha256 included); the
 dynamics network is saved beside it as ``<out>.dynamics.json``.
 """
 from __future__ import annotations
@@ -36,6 +37,8 @@ def register_train_embedding(subparsers: "argparse._SubParsersAction[Any]") -> N
     p.add_argument("--trajectories", type=int, default=1200, help="ae-dyn on the T6: simulated trajectories")
     p.add_argument("--summary", choices=["com", "com_height", "nodes"], default="com",
                    help="ae-dyn on the T6: what the dynamics network predicts (com_height is the paper's)")
+    p.add_argument("--counterfactual", action="store_true",
+                   help="ae-dyn on the T6: the target is what θ changes against the nominal θ from the same state")
     p.add_argument("--epochs", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--workers", type=int, default=2, help="dask workers that simulate the T6 transitions")
@@ -56,8 +59,13 @@ def _transitions(args: argparse.Namespace, space: Any) -> Any:
     from embeddings.transitions import push_transitions
 
     if args.toy == "push":
+        if args.counterfactual:
+            from embeddings.errors import EmbeddingError
+            raise EmbeddingError("--counterfactual applies to the T6's simulated transitions; the push toy's "
+                                 "target already depends on θ alone. Drop --counterfactual or --toy push.")
         return push_transitions(space, args.samples, seed=args.seed)
-    config = T6DataConfig(n_trajectories=args.trajectories, summary=args.summary, seed=args.seed)
+    config = T6DataConfig(n_trajectories=args.trajectories, summary=args.summary, seed=args.seed,
+                          counterfactual=args.counterfactual)
     return t6_transitions(config, space=space, cache_dir=args.cache or DEFAULT_CACHE, workers=args.workers,
                           progress=not args.no_progress)
 

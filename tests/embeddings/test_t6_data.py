@@ -98,3 +98,6 @@ def test_train_embedding_then_identify_with_it(tmp_path, capsys) -> None:
                                "--budget", "5", "--out", str(tmp_path / "id2"), "--no-progress"])
     assert wrong.func(wrong) == 2
     assert "holds a ae-dyn decoder" in capsys.readouterr().err
+    toy = _parser().parse_args(["train-embedding", "ae-dyn", "--toy", "push", "--counterfactual", "--out",
+                                str(tmp_path / "cf.json"), "--no-progress"])
+    assert toy.func(toy) == 2 and "--counterfactual applies to the T6" in capsys.readouterr().err
