@@ -7,7 +7,7 @@ budget); then
 1. Planning: from the robot's resting start, a goal ``--distance`` m away in a seeded direction.
    The planners flop the robot at θ* toward it, replanning after each flop, until within
    ``--radius`` or ``--steps`` flops: one robust plan per level α of ``--levels`` (CVaR_α under K
-   draws of the belief, P re-weighed by each executed flop with ``--learn``), the plan at the
+   draws of the belief, P re-weighed by each executed flop unless ``--no-learn``), the plan at the
    nominal θ and the plan at the belief's MAP θ. Printed: the rate of runs that reached the goal, the mean number of flops
    and the mean final distance.
 2. Probing: M cells drawn from the belief are the hypotheses. Active probing (largest expected
@@ -22,7 +22,7 @@ budget); then
 Run::
 
     .venv/bin/python benchmarks/planning.py --seeds 4            # the modest size of the README
-    .venv/bin/python benchmarks/planning.py --seeds 8 --parts plan --levels 0.2 0.5 --learn   # risk levels
+    .venv/bin/python benchmarks/planning.py --seeds 8 --parts plan --levels 0.2 0.5 --out FILE   # risk levels
     .venv/bin/python benchmarks/planning.py --quick              # smoke run (1 seed, tiny)
 """
 from __future__ import annotations
@@ -45,9 +45,9 @@ from planners.rollouts import warm_up
 POINT_PLANNERS = ("nominal", "MAP")
 
 
-def planner_names(levels: list[float]) -> list[str]:
-    """One robust planner per CVaR level α (``robust α=0.2``), then the point planners."""
-    return [f"robust α={a:g}" for a in levels] + list(POINT_PLANNERS)
+def planner_names(levels: list[float], points: bool = True) -> list[str]:
+    """One robust planner per CVaR level α (``robust α=0.2``), then the point planners (if ``points``)."""
+    return [f"robust α={a:g}" for a in levels] + (list(POINT_PLANNERS) if points else [])
 DEFAULT_FLOP = FlopAction(0.0, 0.2, 4, start=0.2, stop=1.2, duration=1.5)
 
 
@@ -68,7 +68,8 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
     angle = np.random.default_rng(seed + 7).uniform(0, 2 * np.pi)
     goal = robot0.centre + args.distance * np.array([np.cos(angle), np.sin(angle)])
     out = {}
-    for name, level in zip(planner_names(args.levels), list(args.levels) + [1.0] * len(POINT_PLANNERS)):
+    for name, level in zip(planner_names(args.levels, not args.robust_only),
+                           list(args.levels) + [1.0] * len(POINT_PLANNERS)):
         b = {"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)}.get(name, belief)
         robust = name not in POINT_PLANNERS
         run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=level,
@@ -126,7 +127,7 @@ def _print_plans(plans: list[dict], args: argparse.Namespace) -> None:
           f"K = {args.samples} draws, robust objective {args.objective}, learning {'on' if args.learn else 'off'}, horizon {args.horizon}), "
           f"{n} seeds")
     print(f"{'planner':<16}{'reached':>10}{'rate':>7}{'mean flops':>12}{'mean final distance [m]':>26}")
-    for name in planner_names(args.levels):
+    for name in planner_names(args.levels, not args.robust_only):
         r = [p[name] for p in plans]
         print(f"{name:<16}{sum(x[0] for x in r):>7}/{n:<2}{np.mean([x[0] for x in r]):>7.2f}"
               f"{np.mean([x[1] for x in r]):>12.2f}{np.mean([x[2] for x in r]):>26.2f}")
@@ -148,7 +149,7 @@ def _print_probes(probes: list[dict], args: argparse.Namespace) -> None:
 
 def _settings_key(args: argparse.Namespace) -> dict:
     """The settings a journal row depends on (rows made with others are not reused)."""
-    names = ("distance", "radius", "steps", "samples", "levels", "objective", "horizon", "learn", "cells", "probes",
+    names = ("distance", "radius", "steps", "samples", "levels", "robust_only", "objective", "horizon", "learn", "cells", "probes",
              "entropy", "tolerance", "candidates", "budget")
     return {n: getattr(args, n) for n in names}
 
@@ -171,11 +172,13 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--radius", type=float, default=0.5)
     p.add_argument("--steps", type=int, default=6)
     p.add_argument("--samples", type=int, default=8)
-    p.add_argument("--levels", type=float, nargs="+", default=[0.2],
+    p.add_argument("--levels", type=float, nargs="+", default=[0.5],
                    help="CVaR levels α: one robust planner per level (the nominal and MAP plans do not depend on it)")
+    p.add_argument("--robust-only", action="store_true", help="skip the nominal and MAP plans")
     p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
     p.add_argument("--horizon", type=int, choices=[1, 2], default=2, help="1: progress; 2: flops to go (lookahead)")
-    p.add_argument("--learn", action="store_true", help="the robust plan re-weighs P by each executed flop")
+    p.add_argument("--no-learn", dest="learn", action="store_false",
+                   help="the robust plan keeps P as loaded (default: re-weighs P by each executed flop)")
     p.add_argument("--cells", type=int, default=12)
     p.add_argument("--probes", type=int, default=4)
     p.add_argument("--entropy", type=float, default=0.5)

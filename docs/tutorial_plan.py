@@ -2,7 +2,7 @@
 
 1. A belief: a short identification of a robot with hidden parameters θ* from one 1.5 s flop.
 2. A robust plan: flop that robot (simulated at θ*) to a goal 2 m away, choosing each flop by the
-   CVaR of its progress under draws of the belief, replanning after each flop; the nominal plan
+   CVaR of minus the flops still to go under draws of the belief, replanning after each flop; the nominal plan
    (all mass on the nominal θ) for comparison. Figure: ``plan.png``.
 3. Probing: choose flops with the largest expected information gain on cells drawn from the
    belief, run them on the robot, update P. Figure: ``probe.png``.
@@ -48,11 +48,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"belief: {belief.n_cells} cells, entropy {belief.entropy():.2f} nats")
 
     # 2. Plan to a goal 2 m away: each step draws K θ from P, simulates every candidate flop from
-    #    the sensed state, and picks the best CVaR (α = 0.2) of progress toward the goal.
+    #    the sensed state, and picks the best CVaR (α = 0.5) of minus the flops still to go.
     small = {"changes": (0.3,), "n_cables": (4,)} if quick else None
     goal = SimulatedRobot(truth).centre + np.array([2.0, 0.0])
     steps = 1 if quick else 6
-    run = plan_to_goal(belief, SimulatedRobot(truth), goal, radius=0.5, max_steps=steps, level=0.2,
+    run = plan_to_goal(belief, SimulatedRobot(truth), goal, radius=0.5, max_steps=steps, level=0.5,
                        samples=2 if quick else 8, seed=0, actions_kw=small, progress=False)
     nominal = plan_to_goal(PointBelief(space.nominal), SimulatedRobot(truth), goal, radius=0.5, max_steps=steps,
                            seed=0, actions_kw=small, progress=False)

@@ -2,13 +2,13 @@
 
 ::
 
-    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2] [--learn] [--truth T] [--compare] --out DIR
+    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2] [--no-learn] [--truth T] [--compare] --out DIR
     tensegrid probe BELIEF.nc [--truth T] [--steps N] [--cells M] [--sigma S] [--targets NAME ...] --out DIR
 
 The robot is simulated at the truth T: ``nominal`` (default), a JSON file ({name: value} or 15
 numbers in the order of the T6 space) or a trajectory file (netCDF) that carries the θ it was
 simulated at. ``plan`` flops the robot to the goal, replanning after each flop under the belief
-(``--learn``: re-weighed by the flops so far; with ``--compare`` also under the nominal θ and the
+(re-weighed by the flops so far; ``--no-learn`` keeps P as loaded; with ``--compare`` also under the nominal θ and the
 MAP θ) and writes ``plan.json`` and
 ``plan.png``; ``probe`` runs active identification and writes ``probe.json``, ``probe.png`` and
 ``belief_probed.nc``.
@@ -77,13 +77,14 @@ def register_plan(subparsers: "argparse._SubParsersAction[Any]") -> None:
     _common(p)
     p.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"), help="goal point [m]")
     p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
-    p.add_argument("--level", type=float, default=0.2, help="CVaR level α in (0, 1] (default 0.2)")
+    p.add_argument("--level", type=float, default=0.5, help="CVaR level α in (0, 1] (default 0.5)")
     p.add_argument("--samples", type=int, default=12, help="θ draws of the belief per candidate (default 12)")
     p.add_argument("--radius", type=float, default=0.5, help="goal radius [m] (default 0.5)")
     p.add_argument("--horizon", type=int, choices=[1, 2], default=2,
                    help="1: progress of each flop; 2: flops to go, the next flop predicted (default 2)")
     p.add_argument("--steps", type=int, default=8, help="at most this many flops (default 8)")
-    p.add_argument("--learn", action="store_true", help="re-weigh P by each executed flop (default: P as loaded)")
+    p.add_argument("--no-learn", dest="learn", action="store_false",
+                   help="keep P as loaded (default: re-weigh P by each executed flop)")
     p.add_argument("--compare", action="store_true", help="also plan with the nominal θ and the MAP θ")
     p.set_defaults(func=run_plan)
 

@@ -18,7 +18,7 @@ Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score (
 
 :func:`plan_flop` picks the best candidate (ties: the first); :func:`plan_to_goal` repeats {plan
 under P, execute on the robot (hidden θ*), sense the new state, re-weigh P by the flop's recording
-(``learn=True``, :mod:`planners.learning`)} until the robot's centre is within ``radius`` of the goal or
+(``learn=True``, the default, :mod:`planners.learning`)} until the robot's centre is within ``radius`` of the goal or
 ``max_steps`` flops were made. The nominal and MAP plans are the same
 planner on a :class:`PointBelief` (all mass on one θ).
 """
@@ -110,7 +110,7 @@ def outcome_values(rs: RolloutSet, goal: np.ndarray, *, horizon: int, radius: fl
     return progress(rs.displacement, rs.ok, rs.start.centre, goal) if prog is None else prog
 
 
-def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: float = 0.2,
+def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: float = 0.5,
           threshold: float = 0.2, horizon: int = 1, radius: float = 0.5,
           nxt: Mapping[tuple[int, ...], np.ndarray] | None = None,
           values: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -163,7 +163,7 @@ class FlopChoice:
     success: np.ndarray
     rollouts: RolloutSet = field(repr=False)
     objective: str = "cvar"
-    level: float = 0.2
+    level: float = 0.5
     horizon: int = 2
     values: np.ndarray | None = field(default=None, repr=False)
 
@@ -180,7 +180,7 @@ def _start(start: Any) -> RobotStart:
 
 
 def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequence[FlopAction] | None = None,
-              objective: str = "cvar", level: float = 0.2, samples: int = 16, seed: int = 0,
+              objective: str = "cvar", level: float = 0.5, samples: int = 16, seed: int = 0,
               threshold: float = 0.2, radius: float = 0.5, max_distance: float = 20.0, horizon: int = 2,
               pool: DaskPool | None = None, n_workers: int = 0, progress: bool = False) -> FlopChoice:
     """Best flop from ``start`` (RobotStart, T6Model or None) toward the disc of ``radius`` [m] around
@@ -240,14 +240,14 @@ class GoalRun:
 
 
 def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal: Sequence[float], *,
-                 radius: float = 0.5, max_steps: int = 8, objective: str = "cvar", level: float = 0.2,
+                 radius: float = 0.5, max_steps: int = 8, objective: str = "cvar", level: float = 0.5,
                  samples: int = 16, seed: int = 0, threshold: float = 0.2, horizon: int = 2,
-                 learn: bool = False, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
+                 learn: bool = True, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
                  pool: DaskPool | None = None, n_workers: int = 0, progress: bool = True) -> GoalRun:
     """Flop to ``goal`` [m]: repeat {plan_flop under ``belief`` (seed + step), execute on ``robot``
     (a SimulatedRobot, or θ* to build one), sense} until within ``radius`` or ``max_steps`` flops.
 
-    ``learn``: plan on ``cells`` cells of P re-weighed after every flop by its recording, noise
+    ``learn`` (default on): plan on ``cells`` cells of P re-weighed after every flop by its recording, noise
     ``sigma`` [m] (:class:`~planners.learning.FlopEvidence`; a :class:`PointBelief` is never
     updated). ``actions_kw``: options of :func:`candidate_actions` (changes, n_cables, duration,
     ...), taken on each new resting face.

@@ -15,11 +15,11 @@ def test_commands_are_registered_plugins() -> None:
 def test_plan_writes_record_and_figure(make_belief, tmp_path, capsys) -> None:
     path = tmp_path / "b.nc"
     make_belief(2).save(path)
-    code = main(["plan", str(path), "--goal", "1.5", "0.0", "--samples", "2", "--steps", "1", "--learn", "--out",
+    code = main(["plan", str(path), "--goal", "1.5", "0.0", "--samples", "2", "--steps", "1", "--out",
                  str(tmp_path / "out")])
     assert code == 0, capsys.readouterr().err
     record = json.loads((tmp_path / "out" / "plan.json").read_text())
-    assert len(record["runs"]["robust"]["steps"]) == 1 and record["level"] == 0.2 and record["learn"] is True
+    assert len(record["runs"]["robust"]["steps"]) == 1 and record["level"] == 0.5 and record["learn"] is True
     assert record["runs"]["robust"]["steps"][0]["entropy"] is None       # no update after the last flop
     assert (tmp_path / "out" / "plan.png").stat().st_size > 5000
     assert "robust:" in capsys.readouterr().out
