@@ -8,8 +8,8 @@ budget); then
    The planners flop the robot at θ* toward it, replanning after each flop, until within
    ``--radius`` or ``--steps`` flops: one robust plan per level α of ``--levels`` (CVaR_α under K
    draws of the belief, P re-weighed by each executed flop unless ``--no-learn``), the plan at the
-   nominal θ and the plan at the belief's MAP θ. Printed: the rate of runs that reached the goal, the mean number of flops
-   and the mean final distance.
+   nominal θ and the plan at the belief's MAP θ. Printed: the rate of runs that reached the goal,
+   the mean number of flops and the mean final distance.
 2. Probing: M cells drawn from the belief are the hypotheses. Active probing (largest expected
    information gain), random probing (a uniformly drawn candidate) and repeating the default flop
    (heading 0, change 0.2, 4 cables) each run ``--probes`` experiments on a fresh robot at θ*.
@@ -48,6 +48,8 @@ POINT_PLANNERS = ("nominal", "MAP")
 def planner_names(levels: list[float], points: bool = True) -> list[str]:
     """One robust planner per CVaR level α (``robust α=0.2``), then the point planners (if ``points``)."""
     return [f"robust α={a:g}" for a in levels] + (list(POINT_PLANNERS) if points else [])
+
+
 DEFAULT_FLOP = FlopAction(0.0, 0.2, 4, start=0.2, stop=1.2, duration=1.5)
 
 
@@ -124,7 +126,8 @@ def _print_tables(plans: list[dict], probes: list[dict], args: argparse.Namespac
 def _print_plans(plans: list[dict], args: argparse.Namespace) -> None:
     n = len(plans)
     print(f"\nPlanning to a goal {args.distance:g} m away (radius {args.radius:g} m, at most {args.steps} flops, "
-          f"K = {args.samples} draws, robust objective {args.objective}, learning {'on' if args.learn else 'off'}, horizon {args.horizon}), "
+          f"K = {args.samples} draws, robust objective {args.objective}, "
+          f"learning {'on' if args.learn else 'off'}, horizon {args.horizon}), "
           f"{n} seeds")
     print(f"{'planner':<16}{'reached':>10}{'rate':>7}{'mean flops':>12}{'mean final distance [m]':>26}")
     for name in planner_names(args.levels, not args.robust_only):
@@ -149,8 +152,8 @@ def _print_probes(probes: list[dict], args: argparse.Namespace) -> None:
 
 def _settings_key(args: argparse.Namespace) -> dict:
     """The settings a journal row depends on (rows made with others are not reused)."""
-    names = ("distance", "radius", "steps", "samples", "levels", "robust_only", "objective", "horizon", "learn", "cells", "probes",
-             "entropy", "tolerance", "candidates", "budget")
+    names = ("distance", "radius", "steps", "samples", "levels", "robust_only", "objective", "horizon", "learn",
+             "cells", "probes", "entropy", "tolerance", "candidates", "budget")
     return {n: getattr(args, n) for n in names}
 
 
@@ -217,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = [done[s] for s in range(args.seeds)]
     _print_tables([r["plans"] for r in rows], [r["probes"] for r in rows], args)
     return 0
+
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -2,8 +2,8 @@
 
 1. A belief: a short identification of a robot with hidden parameters θ* from one 1.5 s flop.
 2. A robust plan: flop that robot (simulated at θ*) to a goal 2 m away, choosing each flop by the
-   CVaR of minus the flops still to go under draws of the belief, replanning after each flop; the nominal plan
-   (all mass on the nominal θ) for comparison. Figure: ``plan.png``.
+   CVaR of minus the flops still to go under draws of the belief, replanning after each flop; the
+   nominal plan (all mass on the nominal θ) for comparison. Figure: ``plan.png``.
 3. Probing: choose flops with the largest expected information gain on cells drawn from the
    belief, run them on the robot, update P. Figure: ``probe.png``.
 

@@ -10,9 +10,10 @@
 ``vae`` trains on θ drawn from the box. ``ae-dyn`` first simulates the transition set (cached in
 ``--cache``, default ``.cache/tensegrid`` or $TENSEGRID_CACHE), trains the dynamics network on
 80 % of its trajectories and prints its held-out error against predicting the mean, then trains
-the autoencoder through it. With ``--counterfactual`` the network predicts what θ changes against the
-nominal θ from the same state (embeddings.t6_data), which it resolves far better. The decoder file is JSON (weights and their sha256 included); the
-dynamics network is saved beside it as ``<out>.dynamics.json``.
+the autoencoder through it. With ``--counterfactual`` the network predicts what θ changes against
+the nominal θ from the same state (embeddings.t6_data), which it resolves far better. The decoder
+file is JSON (weights and their sha256 included); the dynamics network is saved beside it as
+``<out>.dynamics.json``.
 """
 from __future__ import annotations
 

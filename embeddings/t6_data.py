@@ -19,10 +19,12 @@ once under θ' and once under the nominal θ₀, and the row is (θ', context_i,
 
 The state and the action explain none of θ' (a plain row's state shows its θ, the rod length in
 the node distances, so a network may read θ from the context and ignore its θ input), and the
-target is zero at θ₀, so all a network learns from θ' is θ's effect. Simulations run on the :class:`~physics.pool.DaskPool` (the
-objective's batch machinery), one item per trajectory, with a progress bar; a trajectory that
-diverges is dropped and counted (``attrs["diverged"]``). The set is written to
-``cache_dir/t6-transitions-<sha256 of the settings>.nc`` (netCDF) and read from there next time.
+target is zero at θ₀, so all a network learns from θ' is θ's effect.
+
+Simulations run on the :class:`~physics.pool.DaskPool` (the objective's batch machinery), one
+item per trajectory, with a progress bar; a trajectory that diverges is dropped and counted
+(``attrs["diverged"]``). The set is written to ``cache_dir/t6-transitions-<sha256 of the
+settings>.nc`` (netCDF) and read from there next time.
 """
 from __future__ import annotations
 
