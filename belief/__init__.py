@@ -21,6 +21,7 @@ from belief.belief import Belief
 from belief.errors import BudgetWarning
 from belief.grid import Grid, SobolCandidates, candidates_from_config
 from belief.identify import identify, problem_fingerprint
+from belief.handoff import Carried, carry_over, continue_in
 from belief.noise import NOISE_RULES, EffectiveSize, effective_size, noise_var_from_residuals, segment_discrepancy
 from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, SobolDesign
 from belief.verdicts import VERDICTS, VerdictConfig
@@ -48,5 +49,5 @@ __all__ = [
     "PosteriorConfig", "posterior_from_surrogate", "log_likelihood", "estimate_noise_var",
     "credible_mask", "credible_region", "entropy", "marginals",
     "Journal", "Record",
-    "identify", "problem_fingerprint", "IdentificationResult",
+    "identify", "problem_fingerprint", "IdentificationResult", "Carried", "carry_over", "continue_in",
 ]

@@ -18,6 +18,9 @@ Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` an
 nominal, best and posterior-mean θ of the first trajectory for trajectory data), and journals to
 ``DIR/journal.sqlite`` so an interrupted run resumes when re-run. When the data files carry the
 θ that generated them (simulated data do), the summary shows it next to P's intervals.
+``--handoff N`` spends N evaluations in the decoder's grid (journal ``DIR/journal-latent.sqlite``),
+then continues BO in the full space with them as its initial design (belief.handoff); P is then
+over the full-space candidates.
 """
 from __future__ import annotations
 
@@ -44,6 +47,9 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
                    help="a decoder file: `tensegrid train-embedding` writes vae and ae-dyn, "
                         "ActiveSubspace.save writes active (needed by those three)")
     p.add_argument("--search", choices=["bo", "random"], default="bo", help="how cells are chosen (default bo)")
+    p.add_argument("--handoff", type=int, default=None, metavar="N",
+                   help="after N evaluations in the decoder's latent grid, continue BO in the full space with "
+                        "them as its initial design, up to --budget (belief.handoff)")
     p.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
     p.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
     p.add_argument("--seed", type=int, default=0)
@@ -157,25 +163,33 @@ def _search(args: argparse.Namespace, space: Any) -> tuple[Any, Any]:
     return decoder, Grid.for_decoder(decoder, points_per_dim=points)
 
 
-def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> Any:
-    """identify() with the command line's options; a budget warning goes into the summary, not stderr."""
+def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> tuple[Any, Any, Any]:
+    """(result, decoder, grid) of identify() with the command line's options, after the hand-over to the
+    full space with ``--handoff``; a budget warning goes into the summary, not stderr."""
     import warnings
 
     from belief.errors import BudgetWarning
+    from belief.handoff import continue_in
     from belief.identify import identify
     from belief.posterior import PosteriorConfig
+    from embeddings import Identity
 
     journal = None if (args.journal or "").lower() == "none" else (args.journal or os.path.join(args.out, "journal.sqlite"))
     config = PosteriorConfig(mode=args.posterior, noise_var=args.noise_var, noise_rule=args.noise_rule,
                              discrepancy=args.discrepancy)
+    options = dict(time_budget=args.time_budget, seed=args.seed, q=args.q, workers=args.workers,
+                   progress=not args.no_progress)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BudgetWarning)      # the summary prints it
-        result = identify(
-            objective, decoder, grid, budget=args.budget, time_budget=args.time_budget, seed=args.seed,
-            journal=journal, method=args.search, q=args.q, workers=args.workers,
-            posterior_config=config, progress=not args.no_progress,
-        )
-    return result
+        if args.handoff is None:
+            return identify(objective, decoder, grid, budget=args.budget, journal=journal, method=args.search,
+                            posterior_config=config, **options), decoder, grid
+        first = identify(objective, decoder, grid, budget=args.handoff, method=args.search, posterior=None,
+                         journal=None if journal is None else journal.replace(".sqlite", "") + "-latent.sqlite",
+                         **options)
+        result = continue_in(first, objective, Identity(decoder.space), budget=args.budget, n=args.candidates,
+                             journal=journal, posterior_config=config, **options)
+    return result, Identity(decoder.space), result.belief.grid()
 
 
 def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth: Any, datasets: list[Any]) -> None:
@@ -207,6 +221,20 @@ def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth
         _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
 
 
+def _check_handoff(args: argparse.Namespace) -> None:
+    """--handoff needs a reduced decoder and leaves evaluations for the full space."""
+    from belief.errors import BudgetError
+
+    if args.handoff is None:
+        return
+    if args.decoder == "identity":
+        raise BudgetError("--handoff hands over from a reduced decoder to the full space; with --decoder identity "
+                          "the search is already in the full space. Pass --decoder rembo/vae/ae-dyn/active.")
+    if not 1 <= args.handoff < args.budget:
+        raise BudgetError(f"--handoff {args.handoff} must be at least 1 and below --budget {args.budget}, which "
+                          "counts the evaluations of both stages.")
+
+
 def run_identify(args: argparse.Namespace) -> int:
     """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
     from physics.errors import TensegridError
@@ -219,7 +247,8 @@ def run_identify(args: argparse.Namespace) -> int:
         objective, truth, datasets = _objective(args)
         decoder, grid = _search(args, objective.space)
         os.makedirs(args.out, exist_ok=True)
-        result = _run(args, objective, decoder, grid)
+        _check_handoff(args)
+        result, decoder, grid = _run(args, objective, decoder, grid)
     except TensegridError as exc:
         print(f"tensegrid identify: {exc}", file=sys.stderr)
         return 2

@@ -2,7 +2,8 @@
 
 ::
 
-    replay the journal (records of earlier sessions, checked against the grid)
+    replay the carried records (evaluations of an earlier stage) and the journal (records of
+    earlier sessions), each checked against the grid
     for batch b = 0, 1, ...:                       until the budget (evaluations, seconds) is spent
         size = n_init (b = 0) or q
         cells = proposer.propose(b, records of batches < b, size, grid)
@@ -152,21 +153,25 @@ def _evaluate(objective: Any, thetas: np.ndarray, commit: Callable[[int, _Row], 
     return False
 
 
-def _replayed(journal: Journal | None, grid: Any, n_target: int | None) -> list[Record]:
-    records = journal.records() if journal is not None else []
+def _replayed(journal: Journal | None, grid: Any, n_target: int | None, carried: Sequence[Record] = ()) -> list[Record]:
+    """The carried records, then the journal's, each checked against its grid cell."""
+    records = list(carried) + (journal.records() if journal is not None else [])
     points = np.asarray(grid.points)
-    for r in records:
+    for k, r in enumerate(records):
         if not (0 <= r.cell < grid.size) or not np.array_equal(np.asarray(r.z), points[r.cell]):
-            raise JournalError(f"journal {journal.path!r}: evaluation of cell {r.cell} does not match the grid.")
+            where = "carried evaluations" if k < len(carried) else f"journal {journal.path!r}"  # type: ignore[union-attr]
+            raise JournalError(f"{where}: evaluation of cell {r.cell} does not match the grid.")
     return records[:n_target] if n_target is not None else records
 
 
 def run(objective: Any, decoder: Any, grid: Any, proposer: Proposer, budget: Budget, *, journal: Journal | None,
         workers: int = 1, progress: bool = True, label: str = "identify",
-        after_batch: Callable[[int, Sequence[Record], Proposal], None] | None = None) -> DriverResult:
+        after_batch: Callable[[int, Sequence[Record], Proposal], None] | None = None,
+        carried: Sequence[Record] = ()) -> DriverResult:
     """Run the loop of the module docstring; ``after_batch(n_before, history, proposal)`` is called
-    before each batch is evaluated (e.g. to report P)."""
-    records = _replayed(journal, grid, budget.n_target)
+    before each batch is evaluated (e.g. to report P). ``carried``: evaluations made before this run
+    (belief.handoff), replayed before the journal's and never journalled."""
+    records = _replayed(journal, grid, budget.n_target, carried)
     points = np.asarray(grid.points)
     t_start, replayed = time.perf_counter(), float(sum(r.seconds for r in records))
     out_of_time = lambda: budget.seconds is not None and replayed + time.perf_counter() - t_start >= budget.seconds  # noqa: E731

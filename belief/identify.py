@@ -45,9 +45,11 @@ a finite set of cells, which needs no continuous acquisition optimizer.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import os
-from typing import Any, Callable, Literal
+from typing import Any, Callable, Literal, Sequence
 
 import numpy as np
 import xarray as xr
@@ -55,7 +57,7 @@ import xarray as xr
 from belief.assess import assess
 from belief.driver import Budget, run
 from belief.errors import BeliefError, BudgetError, GridError, ObjectiveError
-from belief.journal import Journal
+from belief.journal import Journal, Record
 from belief.posterior import PosteriorConfig, posterior_from_surrogate
 from belief.proposers import BOProposer, Proposer, RandomProposer, fit_surrogate
 from belief.result import IdentificationResult, history_dataset
@@ -160,6 +162,24 @@ def _validate_budget(grid: Any, decoder: Any, budget: Any, time_budget: Any, met
     return n_target, int(n_init)
 
 
+def _carried_init(carry: Sequence[Record], n_init: Any) -> Any:
+    """The initial design size with carried evaluations: their number (they are batch 0)."""
+    if not carry:
+        return n_init
+    if any(not isinstance(r, Record) or r.batch != 0 for r in carry):
+        raise BeliefError("carry must be belief.Record rows of batch 0 (build them with belief.handoff.carry_over).")
+    if n_init is not None and n_init != len(carry):
+        raise BudgetError(f"n_init={n_init} contradicts the {len(carry)} carried evaluations, which are the initial "
+                          "design; leave n_init unset.")
+    return len(carry)
+
+
+def _carried_fingerprint(carry: Sequence[Record]) -> dict[str, Any]:
+    """Number and SHA-256 of the carried (cell, E, status): a journal refuses other carried data."""
+    text = json.dumps([[r.cell, repr(r.error), r.status] for r in carry])
+    return {"n": len(carry), "sha256": hashlib.sha256(text.encode()).hexdigest()}
+
+
 def _posterior_config(posterior: str | None, posterior_config: PosteriorConfig | None,
                       noise_var: float | None) -> PosteriorConfig:
     if posterior is not None and posterior_config is not None and posterior_config.mode != posterior:
@@ -217,6 +237,7 @@ def identify(
     impute_failed: bool = False,
     progress: bool = True,
     callback: Callable[[int, xr.DataArray], None] | None = None,
+    carry: Sequence[Record] = (),
 ) -> IdentificationResult:
     """Identify θ by Algorithm 1 (module docstring) and return the belief over ``grid``.
 
@@ -230,9 +251,11 @@ def identify(
     mode of P, or None to skip it; ``noise_var``: σ² of the likelihood mode (default: the
     objective's, else ``posterior_config.noise_rule``); ``verdict_config``: thresholds of the
     verdicts (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check); ``callback(n_evaluations, P)``: called
-    before every batch with a fitted surrogate (one extra pass over the grid per batch).
+    before every batch with a fitted surrogate (one extra pass over the grid per batch); ``carry``:
+    evaluations made before this run, as batch 0 (belief.handoff builds them; ``n_init`` is their number).
     """
     space = _validate_problem(objective, decoder, grid, space)
+    n_init = _carried_init(carry, n_init)
     n_target, n_init = _validate_budget(grid, decoder, budget, time_budget, method, q, n_init, workers, seed)
     seed, scfg = int(seed), surrogate or SurrogateConfig()
     pcfg = _posterior_config(posterior, posterior_config, noise_var)
@@ -242,11 +265,14 @@ def identify(
                     else BOProposer(seed, surrogate=scfg, impute_failed=impute_failed))
     fp = problem_fingerprint(objective, decoder, grid, space=space, seed=seed, method=method, q=int(q), n_init=n_init,
                              surrogate=scfg, impute_failed=impute_failed, proposer=proposer if custom else None)
+    if carry:
+        fp["carried"] = _carried_fingerprint(carry)
     jr = Journal(journal, fp) if journal is not None else None
     try:
         out = run(objective, decoder, grid, proposer, Budget(n_target, time_budget, n_init, int(q)), journal=jr,
                   workers=int(workers), progress=progress, label=f"identify[{method}]",
-                  after_batch=_callback_hook(callback if posterior is not None else None, objective, grid, pcfg, seed))
+                  after_batch=_callback_hook(callback if posterior is not None else None, objective, grid, pcfg, seed),
+                  carried=tuple(carry))
     finally:
         if jr is not None:
             jr.close()

@@ -13,7 +13,8 @@ time (benchmarks/paper_methods.py lists the methods). Trained decoders (VAE, the
 autoencoder without and with its centre prior, the active subspace, and ``ae-cf-5``: the
 autoencoder trained through a network on the counterfactual target, what θ changes against the
 nominal θ from the same state, embeddings.t6_data) are trained once and cached under
-.cache/tensegrid/paper/.
+.cache/tensegrid/paper/. ``ae-cf-bo`` hands over: ``Settings.handoff`` evaluations of BO in ae-cf-5's
+latent grid, then BO in the full 15-D space with them as its initial design (belief.handoff).
 
 Each (problem, method) appends one JSON row to ``--out``/paper.jsonl, and a (problem, method) that
 already has its row there is skipped, so an interrupted run resumes; ``--summarize`` prints
@@ -39,7 +40,7 @@ from paper_report import summarize  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAINED = ("vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5")
-METHODS = ("random-15", "bo-15", "rembo-5", *TRAINED, *PEERS)
+METHODS = ("random-15", "bo-15", "rembo-5", *TRAINED, "ae-cf-bo", *PEERS)
 #: the Settings fields the trained decoders depend on (the cache key)
 TRAINING_FIELDS = ("duration", "vae_samples", "vae_epochs", "trajectories", "summary", "dyn_epochs", "ae_epochs",
                    "centre_weight")
@@ -66,12 +67,13 @@ class Settings:
     dyn_epochs: int = 60
     ae_epochs: int = 60
     centre_weight: float = 0.1
+    handoff: int = 15
     workers: int = 2
 
     @classmethod
     def smoke(cls) -> "Settings":
         return cls(budget=5, duration=0.4, n_init=3, points_per_dim=3, candidates=128, vae_samples=300,
-                   vae_epochs=2, trajectories=3, dyn_epochs=2, ae_epochs=2, workers=0)
+                   vae_epochs=2, trajectories=3, dyn_epochs=2, ae_epochs=2, handoff=3, workers=0)
 
 
 def observe(space: Any, truth: np.ndarray, flops: tuple, settings: Settings, noise: float, seed: int) -> list[Any]:
@@ -163,20 +165,40 @@ def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, A
         decoder = Identity(space)
         grid = SobolCandidates.for_decoder(decoder, n=settings.candidates, seed=seed)
         return _identify(objective, decoder, grid, settings, seed, "random" if name == "random-15" else "bo")
+    if name == "ae-cf-bo":
+        return _handoff(objective, decoders["ae-cf-5"], space, settings, seed)
     decoder = REMBO(space, dim=5, seed=seed) if name == "rembo-5" else decoders[name]
     return _identify(objective, decoder, Grid.for_decoder(decoder, points_per_dim=settings.points_per_dim),
                      settings, seed, "bo")
 
 
-def _identify(objective: Any, decoder: Any, grid: Any, settings: Settings, seed: int, method: str) -> Any:
+def _identify(objective: Any, decoder: Any, grid: Any, settings: Settings, seed: int, method: str, *,
+              budget: int | None = None, posterior: str | None = "likelihood") -> Any:
     import warnings
 
     from belief.identify import identify
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return identify(objective, decoder, grid, budget=settings.budget, seed=seed, method=method,
-                        n_init=settings.n_init, progress=False)
+        return identify(objective, decoder, grid, budget=budget or settings.budget, seed=seed, method=method,
+                        n_init=settings.n_init, progress=False, posterior=posterior)
+
+
+def _handoff(objective: Any, decoder: Any, space: Any, settings: Settings, seed: int) -> Any:
+    """``settings.handoff`` evaluations of BO in ``decoder``'s latent grid, then BO in the full space with
+    them as its initial design (belief.handoff), up to ``settings.budget``."""
+    import warnings
+
+    from belief.grid import Grid
+    from belief.handoff import continue_in
+    from embeddings import Identity
+
+    first = _identify(objective, decoder, Grid.for_decoder(decoder, points_per_dim=settings.points_per_dim),
+                      settings, seed, "bo", budget=settings.handoff, posterior=None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return continue_in(first, objective, Identity(space), budget=settings.budget, seed=seed,
+                           n=settings.candidates, progress=False)
 
 
 def score(name: str, log: list, result: Any, held_out: Any, truth: np.ndarray, space: Any) -> dict[str, Any]:

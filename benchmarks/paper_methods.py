@@ -7,6 +7,8 @@ methods are scored the same way: best-so-far θ after n evaluations or t seconds
 * ``random-15``, ``bo-15``: belief.identify with the Identity decoder on Sobol candidates.
 * ``rembo-5``, ``vae-5``, ``ae-dyn-5``, ``ae-dyn-prior-5``, ``active-5``, ``ae-cf-5``: belief.identify (BO) on a grid over
   the decoder's 5-D latent box.
+* ``ae-cf-bo``: BO in ae-cf-5's latent grid, then in the full space with those evaluations
+  (belief.handoff; benchmarks/paper.py).
 * ``cma-es``: the ``cma`` package in the unit cube (x0 = centre, σ0 = 0.3, default population).
 * ``botorch``: a SingleTaskGP on -log E with qLogEI (q = 1), Sobol initial design of the same
   size as identify's, acquisition optimized by L-BFGS-B restarts (optimize_acqf). Torch runs on

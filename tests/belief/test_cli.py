@@ -55,6 +55,24 @@ def test_usage_errors(tmp_path, capsys) -> None:
     assert "for trained decoders" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         p.parse_args(["identify", "--toy", "push", "--decoder", "pca", "--out", str(tmp_path)])
+    args = p.parse_args(["identify", "--toy", "push", "--handoff", "4", "--out", str(tmp_path)])
+    assert args.func(args) == 2
+    assert "already in the full space" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--decoder", "rembo", "--handoff", "10", "--budget", "10",
+                         "--out", str(tmp_path)])
+    assert args.func(args) == 2
+    assert "below --budget" in capsys.readouterr().err
+
+
+def test_handoff_continues_in_the_full_space(tmp_path) -> None:
+    out = tmp_path / "handoff"
+    args = _parser().parse_args(["identify", "--toy", "push", "--decoder", "rembo", "--dim", "1", "--handoff", "5",
+                                 "--budget", "11", "--candidates", "256", "--out", str(out), "--no-progress"])
+    assert args.func(args) == 0
+    res = IdentificationResult.load(out / "result.nc")
+    assert res.n_evaluations == 11 and res.config["decoder"]["kind"] == "identity"
+    assert res.config["grid"]["n"] == 256 and len(res.config["grid"]["include"]) == 5
+    assert (out / "journal-latent.sqlite").exists() and (out / "posterior_marginals.png").stat().st_size > 0
 
 
 @pytest.mark.slow

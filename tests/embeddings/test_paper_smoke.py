@@ -21,12 +21,12 @@ def test_paper_comparison_smoke(tmp_path) -> None:
                            "--cache", str(tmp_path / "cache")], capture_output=True, text=True, env=env, timeout=900)
     assert done.returncode == 0, done.stderr[-3000:]
     rows = [json.loads(line) for line in (tmp_path / "paper.jsonl").read_text().splitlines()]
-    methods = {"random-15", "bo-15", "rembo-5", "vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5", "cma-es",
-               "botorch"}
+    methods = {"random-15", "bo-15", "rembo-5", "vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5", "ae-cf-bo",
+               "cma-es", "botorch"}
     assert {r["method"] for r in rows} == methods and len(rows) == len(methods)
     for row in rows:
         assert len(row["errors"]) == 5 and len(row["heldout"]) == 5 and len(row["param_error_pct"]) == 15
         assert all(b >= a for a, b in zip(row["seconds"], row["seconds"][1:]))
-    assert sum("verdict" in r for r in rows) == 8                 # the belief methods report verdicts
+    assert sum("verdict" in r for r in rows) == 9                 # the belief methods report verdicts
     assert "parameter error of the final best" in done.stdout and "held-out E" in done.stdout
     assert (tmp_path / "paper_heldout.png").stat().st_size > 0
