@@ -23,6 +23,9 @@ estimated size against the true one; for mixes how often the second effect is fo
     .venv/bin/python benchmarks/effects.py                          # every scenario, 10 seeds
     .venv/bin/python benchmarks/effects.py --seeds 2 --scenarios actuator_delay none
     .venv/bin/python benchmarks/effects.py --summarize benchmarks/results/effects.jsonl   # the table again
+
+Runs go seed by seed over the scenarios; a (scenario, seed, --held-out, --budget) already in
+``--out`` is skipped, so an interrupted run resumes and a rerun prints the table of its rows.
 """
 from __future__ import annotations
 
@@ -159,10 +162,16 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for name in args.scenarios:
-        for seed in range(args.first_seed, args.first_seed + args.seeds):
-            row = run_one(name, seed, args.budget, args.held_out)
+    saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
+    done = {(r["scenario"], r["seed"], r.get("held_out", "heading"), r.get("budget")) for r in saved}
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds
+            and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget]
+    for seed in seeds:                  # seed by seed: a partial run covers every scenario
+        for name in args.scenarios:
+            if (name, seed, args.held_out, args.budget) in done:
+                continue
+            row = {**run_one(name, seed, args.budget, args.held_out), "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")

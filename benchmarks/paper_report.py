@@ -2,7 +2,7 @@
 
 * held-out E at the best-so-far θ after n evaluations and after t seconds, per sensor-noise level:
   mean ± std over problems of log10 E, and the mean rank of each method (1 = lowest held-out
-  error on that problem);
+  error on that problem; tied methods share the mean of their ranks);
 * parameter error |θ̂ - θ*| / θ* in % of the final best θ, mean ± std over problems (the paper's Table I);
 * the posterior's verdicts (methods that return a belief): parameters flagged identified, how many of
   them lie within 1 % of the truth (posterior mean), and how often the 90 % interval holds the truth.
@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.stats import rankdata
 
 
 def _rows(path: Path) -> list[dict[str, Any]]:
@@ -46,10 +47,8 @@ def _table(rows: list[dict[str, Any]], methods: list[str], points: list[float], 
         for prob in problems:
             values = {m: at(by[(m, prob)], p) for m in methods if (m, prob) in by}
             finite = {m: v for m, v in values.items() if np.isfinite(v)}
-            order = sorted(finite, key=finite.get)
-            for m in methods:
-                if m in finite:
-                    ranks[m][p].append(order.index(m) + 1)
+            for m, rank in zip(finite, rankdata(list(finite.values()), method="average")):
+                ranks[m][p].append(float(rank))
     for m in methods:
         cells = []
         for p in points:
@@ -91,6 +90,12 @@ def _verdict_table(rows: list[dict[str, Any]], methods: list[str]) -> None:
         print(f"| {m} | {flagged} | {within} | {held}/{total} |")
 
 
+#: line colours by method order: matplotlib's ten defaults, then black
+PALETTE = (*(f"C{k}" for k in range(10)), "black")
+#: methods drawn dashed: the peers a user would pick instead of the project's methods
+PEERS = ("cma-es", "botorch")
+
+
 def _figure(rows: list[dict[str, Any]], methods: list[str], path: Path) -> None:
     """Held-out error against evaluations and wall time, one row of panels per sensor-noise level."""
     import matplotlib
@@ -106,14 +111,15 @@ def _figure(rows: list[dict[str, Any]], methods: list[str], path: Path) -> None:
         same = [r for r in rows if r["noise"] == noise]
         for ax, grid, at, xlabel in zip(row_axes, grids, (_at_evaluations, _at_seconds),
                                         ("evaluations", "wall time [s]")):
-            for m in methods:
+            for k, m in enumerate(methods):
                 sel = [r for r in same if r["method"] == m]
                 if not sel:
                     continue
                 logs = np.array([[np.log10(at(r, p)) for p in grid] for r in sel])
                 mean, std = np.nanmean(logs, axis=0), np.nanstd(logs, axis=0)
-                ax.plot(grid, mean, label=m)
-                ax.fill_between(grid, mean - std, mean + std, alpha=0.08)
+                color = PALETTE[k % len(PALETTE)]
+                ax.plot(grid, mean, label=m, color=color, linestyle="--" if m in PEERS else "-")
+                ax.fill_between(grid, mean - std, mean + std, alpha=0.08, color=color)
             ax.set_xlabel(xlabel)
             ax.set_ylabel("log10 held-out E, best θ so far")
         row_axes[0].set_title(f"sensor noise {noise * 1000:g} mm: mean ± std over "
