@@ -159,7 +159,7 @@ def _replayed(journal: Journal | None, grid: Any, n_target: int | None, carried:
     points = np.asarray(grid.points)
     for k, r in enumerate(records):
         if not (0 <= r.cell < grid.size) or not np.array_equal(np.asarray(r.z), points[r.cell]):
-            where = "carried evaluations" if k < len(carried) else f"journal {journal.path!r}"  # type: ignore[union-attr]
+            where = "carried evaluations" if k < len(carried) else f"journal {getattr(journal, 'path', None)!r}"
             raise JournalError(f"{where}: evaluation of cell {r.cell} does not match the grid.")
     return records[:n_target] if n_target is not None else records
 

@@ -70,3 +70,24 @@ def test_carry_over_checks_the_decoder_and_the_budget(first) -> None:
     with pytest.raises(BudgetError, match="n_init"):
         identify(objective, Identity(objective.space), carried.grid, budget=10, seed=0, n_init=4,
                  carry=carried.records, progress=False)
+
+
+def test_failed_evaluations_are_carried_as_failed_and_never_proposed_again(branin15) -> None:
+    from physics.errors import PhysicsError
+
+    def objective(theta: np.ndarray) -> float:
+        if theta[3] > 0.6:
+            raise PhysicsError("diverged (test)")
+        return branin15(theta)
+
+    objective.space = branin15.space
+    decoder = REMBO(branin15.space, dim=5, seed=0)
+    first = identify(objective, decoder, Grid.for_decoder(decoder, points_per_dim=5), budget=8, seed=0,
+                     posterior=None, progress=False)
+    failed = int((first.history["status"].values != "ok").sum())
+    assert 0 < failed < 8
+    second = continue_in(first, objective, Identity(branin15.space), budget=12, seed=0, n=128, posterior=None,
+                         progress=False)
+    status = second.history["status"].values
+    np.testing.assert_array_equal(status[:8], first.history["status"].values)
+    assert len(set(second.history["cell"].values)) == 12

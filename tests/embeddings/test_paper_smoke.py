@@ -21,8 +21,8 @@ def test_paper_comparison_smoke(tmp_path) -> None:
                            "--cache", str(tmp_path / "cache")], capture_output=True, text=True, env=env, timeout=900)
     assert done.returncode == 0, done.stderr[-3000:]
     rows = [json.loads(line) for line in (tmp_path / "paper.jsonl").read_text().splitlines()]
-    methods = {"random-15", "bo-15", "rembo-5", "vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5", "ae-cf-bo",
-               "cma-es", "botorch"}
+    methods = {"random-15", "bo-15", "rembo-5", "vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5",
+               "ae-cf-bo", "cma-es", "botorch"}
     assert {r["method"] for r in rows} == methods and len(rows) == len(methods)
     for row in rows:
         assert len(row["errors"]) == 5 and len(row["heldout"]) == 5 and len(row["param_error_pct"]) == 15
