@@ -185,7 +185,7 @@ def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> t
             return identify(objective, decoder, grid, budget=args.budget, journal=journal, method=args.search,
                             posterior_config=config, **options), decoder, grid
         first = identify(objective, decoder, grid, budget=args.handoff, method=args.search, posterior=None,
-                         journal=None if journal is None else journal.replace(".sqlite", "") + "-latent.sqlite",
+                         journal=None if journal is None else os.path.splitext(journal)[0] + "-latent.sqlite",
                          **options)
         result = continue_in(first, objective, Identity(decoder.space), budget=args.budget, n=args.candidates,
                              journal=journal, posterior_config=config, **options)
