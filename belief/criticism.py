@@ -36,10 +36,12 @@ identified θ̂, and a split of its segments into *fit* segments F and *held-out
    ``min_evidence`` and the pair explains ``min_fraction`` of the held-out error, the first of
    the two is found (the next pass looks for the second). Otherwise **unexplained**, with where
    the residual concentrates (belief.residuals).
-   Effects whose evidence lies within ``tie`` of the best are not told apart by it (a sensor
-   bias and a larger end-cap radius both lift the resting robot): of those that would each be
-   found, the one that explains most of the held-out error is ranked first, and the others
-   within ``tie`` are reported as ``alternatives`` to the found one.
+   When several effects would each be found (a sensor bias and a larger end-cap radius both
+   lift the resting robot), they are *contenders* (:func:`_contest`): all are scored with the
+   same effective counts K̄_F, K̄_H (their mean), so that a difference of evidence between two
+   contenders is a log-likelihood ratio on the same data, not a difference of their K. The
+   contender with the largest evidence is ranked first; the others within ``tie`` of it are not
+   told apart by the data and are reported as ``alternatives`` to the found one.
 """
 from __future__ import annotations
 
@@ -122,6 +124,7 @@ class Criticism:
     structure: dict[str, Any] = field(default_factory=dict)
     pair: dict[str, Any] | None = None    # the two best refined together (module docstring, step 3)
     alternatives: list[str] = field(default_factory=list)   # effects the evidence cannot tell from the found one
+    contest: dict[str, Any] | None = None  # the contenders and their common effective counts (:func:`_contest`)
 
     def table(self) -> str:
         """The ranking as text: effect, evidence above the floor, explained fraction, fitted size."""
@@ -131,6 +134,9 @@ class Criticism:
         for k, c in enumerate(self.ranking, 1):
             mark = " <- found" if self.found is not None and c.name == self.found.name else ""
             lines.append(f"{k:>4}  {c.name:24s} {c.evidence:10.1f} {c.explained:10.1%}  {_values(c.values)}{mark}")
+        if self.contest is not None:
+            lines.append(f"      contenders {', '.join(self.contest['effects'])}: scored with common "
+                         f"K_F = {self.contest['n_fit']:.1f}, K_H = {self.contest['n_held']:.1f}")
         if self.alternatives:
             lines.append(f"      indistinguishable by evidence from the found effect: {', '.join(self.alternatives)}")
         if self.pair is not None:
@@ -146,7 +152,7 @@ class Criticism:
                 "floor": asdict(self.floor), "ranking": [asdict(c) for c in self.ranking],
                 "base_fit": self.base_fit, "base_held": self.base_held, "n_eff_fit": self.n_eff_fit,
                 "n_eff_held": self.n_eff_held, "structure": self.structure, "pair": self.pair,
-                "alternatives": self.alternatives}
+                "alternatives": self.alternatives, "contest": self.contest}
 
 
 def _values(values: dict[str, float]) -> str:
@@ -288,14 +294,38 @@ def _passes(c: Candidate, config: CriticismConfig) -> bool:
     return c.evidence >= config.min_evidence and c.explained >= config.min_fraction
 
 
+def _contest(ranking: list[Candidate], base: tuple[float, float],
+             config: CriticismConfig) -> tuple[list[Candidate], dict[str, Any] | None]:
+    """The effects that would each be found (contenders), scored with common effective counts.
+
+    Each contender's evidence is a sum of K ln(E_0/E_e) terms with its own effective count K: between
+    two effects that both explain the residual, a difference of K (an estimate from each one's
+    residuals) would decide their order, not their fit. So all are scored with K̄_F, K̄_H, the
+    means of their counts:
+
+        evidence_e = K̄_F ln(E_F / E_F,e) + K̄_H ln(E_H / E_H,e) - k_e ln(K̄_F + K̄_H)
+
+    whose difference between contenders a and b is K̄_F ln(E_F,b/E_F,a) + K̄_H ln(E_H,b/E_H,a)
+    - (k_a - k_b) ln(K̄_F + K̄_H), twice a log-likelihood ratio on the same data. Returns the
+    ranking with the contenders rescored, and {"effects", "n_fit", "n_held"} (None: fewer than two)."""
+    names = [c.name for c in ranking if _passes(c, config) and c.theta]
+    if len(names) < 2:
+        return ranking, None
+    contenders = [c for c in ranking if c.name in names]
+    k_fit = float(np.mean([c.n_fit for c in contenders]))
+    k_held = float(np.mean([c.n_held for c in contenders]))
+    common = {c.name: _rescore(replace(c, n_fit=k_fit, n_held=k_held), base) for c in contenders}
+    return [common.get(c.name, c) for c in ranking], {"effects": names, "n_fit": k_fit, "n_held": k_held}
+
+
 def _order(ranking: list[Candidate], config: CriticismConfig) -> list[Candidate]:
     """By evidence, best first, except that the effects within ``tie`` of the best evidence that
-    would each be found come first, by held-out explained fraction (module docstring, step 3)."""
+    would each be found come before those that would not (module docstring, step 3)."""
     ranking = sorted(ranking, key=lambda c: -c.evidence)
     if not ranking or not np.isfinite(ranking[0].evidence):
         return ranking
     close = [c for c in ranking if c.evidence >= ranking[0].evidence - config.tie and _passes(c, config)]
-    return sorted(close, key=lambda c: -c.explained) + [c for c in ranking if c not in close]
+    return close + [c for c in ranking if c not in close]
 
 
 def _verdict(objective: Any, crit: Criticism, fit: np.ndarray, held: np.ndarray, config: CriticismConfig) -> Criticism:
@@ -348,7 +378,7 @@ def criticize(objective: Any, theta: np.ndarray, *, fit: Sequence[bool], held: S
     screened.sort(key=lambda c: -c.evidence)
     top = tqdm(screened[:config.joint], desc="joint fits", leave=False, disable=not progress)
     ranking = [_joint(objective, c, fit, held, base, config) for c in top]
-    ranking = _order(ranking + [_rescore(c, base) for c in screened[config.joint:]], config)
-    crit = Criticism(theta, base[0], base[1], n_fit, n_held, ranking, floor, "unexplained", None,
-                     dict(structure or {}))
+    ranking, contest = _contest(ranking + [_rescore(c, base) for c in screened[config.joint:]], base, config)
+    crit = Criticism(theta, base[0], base[1], n_fit, n_held, _order(ranking, config), floor, "unexplained", None,
+                     dict(structure or {}), contest=contest)
     return _verdict(objective, crit, fit, held, config)

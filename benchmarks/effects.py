@@ -15,8 +15,8 @@ catalog); ``mix`` (ground slope and actuator delay); ``actuator+contact`` (rate-
 and end-cap radius, as another engine's SUPERball differs from this one).
 
 Printed per scenario: seeds; how often the true effect (of a mix, the larger one: the one whose
-omission raises the held-out error at the true parameters most) is ranked first
-and found; how often any effect is claimed; the median held-out explained fraction of the top
+omission raises the held-out error at the true parameters most) is ranked first, ranked first or
+named as an alternative the data cannot tell from the found one, and found; how often any effect is claimed; the median held-out explained fraction of the top
 effect; the median held-out error after / before adding the found effect(s); the median
 estimated size against the true one; for mixes how often the second effect is found on pass 2.
 
@@ -110,7 +110,10 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation") -> d
            "top_evidence": top.evidence if top else None, "floor": first.floor.name,
            "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
            "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None, "n_eff_fit": first.n_eff_fit,
-           "found": d.found, "reductions": [p.reduction for p in d.passes if p.reduction is not None],
+           "found": d.found, "alternatives": first.alternatives,
+           "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error}
+                          for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
+           "reductions": [p.reduction for p in d.passes if p.reduction is not None],
            "held_before": sum(d.passes[0].held_before.values()), "seconds": time.perf_counter() - start,
            "true_values": {k: v for e in effects for k, v in SIZES[e.name].items()}, "held_out": held_out}
     row["larger"] = larger_effect(name, data, truth) if name in MIXES else (row["truth"] or [None])[0]
@@ -120,7 +123,7 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation") -> d
 
 
 def summarize(rows: list[dict]) -> None:
-    print(f"{'scenario':22s} {'seeds':>5} {'top=true':>8} {'found':>6} {'claimed':>7} {'explained':>9} "
+    print(f"{'scenario':22s} {'seeds':>5} {'top=true':>8} {'named':>5} {'found':>6} {'claimed':>7} {'explained':>9} "
           f"{'after/before':>12} {'criticism fit (true)':>24} {'2nd found':>9}")
     for name in dict.fromkeys(r["scenario"] for r in rows):
         rs = [r for r in rows if r["scenario"] == name]
@@ -131,6 +134,7 @@ def summarize(rows: list[dict]) -> None:
         other = [t for t in truth if t != first]
         top_ok = sum(r["top"] == first for r in rs) if first else "-"
         found_ok = sum(bool(r["found"]) and r["found"][0] == first for r in rs) if first else "-"
+        named = sum(r["top"] == first or first in r.get("alternatives", []) for r in rs) if first else "-"
         claimed = sum(bool(r["found"]) for r in rs)
         explained = np.median([r["top_explained"] for r in rs if r["top_explained"] is not None])
         ratios = [r["held_after"] / r["held_before"] for r in rs if r["held_after"] is not None]
@@ -141,7 +145,7 @@ def summarize(rows: list[dict]) -> None:
             vals = [r["top_values"].get(key) for r in rs if r["top"] == first]
             est = f"{np.median(vals):.4g} ({SIZES[first][key]:.4g})" if vals else "-"
         second = sum(len(r["found"]) > 1 and r["found"][1] == other[0] for r in rs) if name in MIXES else "-"
-        print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
+        print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(named):>5} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
               f"{ratio:>12} {est:>24} {str(second):>9}")
 
 

@@ -116,17 +116,44 @@ def test_a_mix_of_two_effects_finds_the_larger_first():
     assert min(crit.pair["given"].values()) >= QUICK.min_evidence, crit.table()
 
 
-def test_effects_the_evidence_cannot_tell_apart_are_ordered_by_held_out_fit_and_named():
+def test_effects_the_evidence_cannot_tell_apart_are_named_and_ranked_by_evidence():
     from belief.criticism import Candidate, Criticism, _order, _verdict
 
     def c(name, evidence, explained):
         return Candidate(name, "effect", {name: 1.0}, 1.0, 1.0, explained, evidence, stage="joint")
 
     config = CriticismConfig()
-    ranking = _order([c("bias", 85.1, 0.80), c("caps", 83.9, 0.84), c("drag", 20.0, 0.9), c("slope", 84.0, 0.2)], config)
-    assert [r.name for r in ranking] == ["caps", "bias", "slope", "drag"]    # slope is close but would not be found
+    ranking = _order([c("caps", 83.9, 0.84), c("bias", 85.1, 0.80), c("drag", 20.0, 0.9), c("slope", 86.0, 0.2)], config)
+    assert [r.name for r in ranking] == ["bias", "caps", "slope", "drag"]    # slope is close but would not be found
     crit = _verdict(None, Criticism(np.zeros(15), 1.0, 1.0, 10, 10, ranking, ranking[0], "unexplained", None), None,
                     None, config)
-    assert crit.found.name == "caps" and crit.alternatives == ["bias", "slope"]
-    apart = _order([c("bias", 95.0, 0.80), c("caps", 83.9, 0.84)], config)
+    assert crit.found.name == "bias" and crit.alternatives == ["caps", "slope"]
+    apart = _order([c("caps", 83.9, 0.84), c("bias", 95.0, 0.80)], config)
     assert [r.name for r in apart] == ["bias", "caps"]
+
+
+def test_contenders_are_scored_on_common_effective_counts():
+    """Two effects that both pass: their evidence difference becomes a likelihood ratio on one K."""
+    import math
+
+    from belief.criticism import Candidate, _contest, _rescore
+
+    base = (0.454, 0.211)
+    config = CriticismConfig()
+    bias = _rescore(Candidate("bias", "effect", {"b": 0.018}, 0.0192, 0.0157, 0, 0, n_fit=40.3, n_held=22.5,
+                              stage="joint", theta=(1.0,)), base)
+    caps = _rescore(Candidate("caps", "effect", {"c": 0.017}, 0.0239, 0.0140, 0, 0, n_fit=39.8, n_held=30.7,
+                              stage="joint", theta=(1.0,)), base)
+    drag = _rescore(Candidate("drag", "effect", {"d": 0.0}, 0.45, 0.21, 0, 0, n_fit=8.0, n_held=4.6,
+                              stage="joint", theta=(1.0,)), base)
+    assert caps.evidence > bias.evidence + config.tie          # each on its own K: the larger K_H decides
+    ranking, contest = _contest([caps, bias, drag], base, config)
+    assert contest["effects"] == ["caps", "bias"] and ranking[2] is drag     # drag does not pass: untouched
+    k_fit, k_held = contest["n_fit"], contest["n_held"]
+    assert (k_fit, k_held) == pytest.approx((40.05, 26.6))
+    scored = {r.name: r for r in ranking}
+    ratio = k_fit * math.log(0.0239 / 0.0192) + k_held * math.log(0.0140 / 0.0157)
+    assert scored["bias"].evidence - scored["caps"].evidence == pytest.approx(ratio)
+    assert ratio > 0                                           # on common K the better total fit wins
+    alone, none = _contest([caps, drag], base, config)
+    assert none is None and alone == [caps, drag]
