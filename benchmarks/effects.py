@@ -15,14 +15,15 @@ catalog); ``mix`` (ground slope and actuator delay); ``actuator+contact`` (rate-
 and end-cap radius, as another engine's SUPERball differs from this one).
 
 Printed per scenario: seeds; how often the true effect (of a mix, the larger one: the one whose
-omission raises the held-out error at the true parameters most) is ranked first, ranked first or
-named as an alternative the data cannot tell from the found one, and found; how often any effect is claimed; the median held-out explained fraction of the top
-effect; the median held-out error after / before adding the found effect(s); the median
-estimated size against the true one; for mixes how often the second effect is found on pass 2.
+omission raises the held-out error at the true parameters most) is ranked first, is ranked first
+or named as an alternative the data cannot tell from the found one, and is found; how often any
+effect is claimed; the median held-out explained fraction of the top effect; the median (and
+largest) held-out error after / before adding the found effect(s); the median estimated size
+against the true one; for mixes how often the second effect is found on pass 2.
 
     .venv/bin/python benchmarks/effects.py                          # every scenario, 10 seeds
     .venv/bin/python benchmarks/effects.py --seeds 2 --scenarios actuator_delay none
-    .venv/bin/python benchmarks/effects.py --summarize benchmarks/results/effects.jsonl   # the table again
+    .venv/bin/python benchmarks/effects.py --summarize benchmarks/results/effects-actuation.jsonl  # the table again
 
 Runs go seed by seed over the scenarios; a (scenario, seed, --held-out, --budget) already in
 ``--out`` is skipped, so an interrupted run resumes and a rerun prints the table of its rows.
@@ -124,7 +125,7 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation") -> d
 
 def summarize(rows: list[dict]) -> None:
     print(f"{'scenario':22s} {'seeds':>5} {'top=true':>8} {'named':>5} {'found':>6} {'claimed':>7} {'explained':>9} "
-          f"{'after/before':>12} {'criticism fit (true)':>24} {'2nd found':>9}")
+          f"{'after/before (max)':>18} {'criticism fit (true)':>24} {'2nd found':>9}")
     for name in dict.fromkeys(r["scenario"] for r in rows):
         rs = [r for r in rows if r["scenario"] == name]
         if len({r.get("held_out", "heading") for r in rs}) > 1:
@@ -138,7 +139,7 @@ def summarize(rows: list[dict]) -> None:
         claimed = sum(bool(r["found"]) for r in rs)
         explained = np.median([r["top_explained"] for r in rs if r["top_explained"] is not None])
         ratios = [r["held_after"] / r["held_before"] for r in rs if r["held_after"] is not None]
-        ratio = f"{np.median(ratios):.2f}" if ratios else "-"
+        ratio = f"{np.median(ratios):.2f} ({max(ratios):.2f})" if ratios else "-"
         est = "-"
         if first:
             key = next(iter(SIZES[first]))
@@ -146,7 +147,7 @@ def summarize(rows: list[dict]) -> None:
             est = f"{np.median(vals):.4g} ({SIZES[first][key]:.4g})" if vals else "-"
         second = sum(len(r["found"]) > 1 and r["found"][1] == other[0] for r in rs) if name in MIXES else "-"
         print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(named):>5} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
-              f"{ratio:>12} {est:>24} {str(second):>9}")
+              f"{ratio:>18} {est:>24} {str(second):>9}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -159,12 +160,13 @@ def main(argv: list[str] | None = None) -> int:
                     help="the held-out flop: another actuation (default) or only another heading")
     ap.add_argument("--scenarios", nargs="*",
                     default=[e.name for e in catalog()] + ["none", "outside", "mix", "actuator+contact"])
-    ap.add_argument("--out", default="benchmarks/results/effects.jsonl", help="rows are appended here (JSON lines)")
+    ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
+                    "benchmarks/results/effects-{held-out}.jsonl)")
     args = ap.parse_args(argv)
     if args.summarize:
         summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
         return 0
-    out = Path(args.out)
+    out = Path(args.out or f"benchmarks/results/effects-{args.held_out}.jsonl")
     out.parent.mkdir(parents=True, exist_ok=True)
     saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
     done = {(r["scenario"], r["seed"], r.get("held_out", "heading"), r.get("budget")) for r in saved}
