@@ -22,6 +22,7 @@ from belief.errors import BudgetWarning
 from belief.grid import Grid, SobolCandidates, candidates_from_config
 from belief.identify import identify, problem_fingerprint
 from belief.handoff import Carried, carry_over, continue_in
+from belief.least_squares import LocalStep, StepConfig, gauss_newton_step
 from belief.noise import NOISE_RULES, EffectiveSize, effective_size, noise_var_from_residuals, segment_discrepancy
 from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, SobolDesign
 from belief.verdicts import VERDICTS, VerdictConfig
@@ -50,4 +51,5 @@ __all__ = [
     "credible_mask", "credible_region", "entropy", "marginals",
     "Journal", "Record",
     "identify", "problem_fingerprint", "IdentificationResult", "Carried", "carry_over", "continue_in",
+    "LocalStep", "StepConfig", "gauss_newton_step",
 ]

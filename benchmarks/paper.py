@@ -14,7 +14,9 @@ autoencoder without and with its centre prior, the active subspace, and ``ae-cf-
 autoencoder trained through a network on the counterfactual target, what θ changes against the
 nominal θ from the same state, embeddings.t6_data) are trained once and cached under
 .cache/tensegrid/paper/. ``ae-cf-bo`` hands over: ``Settings.handoff`` evaluations of BO in ae-cf-5's
-latent grid, then BO in the full 15-D space with them as its initial design (belief.handoff).
+latent grid, then BO in the full 15-D space with them as its initial design (belief.handoff);
+``ae-cf-bo-gn`` stops that BO D + 4 evaluations early and spends them on one Gauss-Newton step
+from its best θ, off the candidate grid (belief.gauss_newton_step).
 
 Each (problem, method) appends one JSON row to ``--out``/paper.jsonl, and a (problem, method) that
 already has its row there is skipped, so an interrupted run resumes; ``--summarize`` prints
@@ -28,7 +30,7 @@ import hashlib
 import json
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +42,7 @@ from paper_report import summarize  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAINED = ("vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5")
-METHODS = ("random-15", "bo-15", "rembo-5", *TRAINED, "ae-cf-bo", *PEERS)
+METHODS = ("random-15", "bo-15", "rembo-5", *TRAINED, "ae-cf-bo", "ae-cf-bo-gn", *PEERS)
 #: the Settings fields the trained decoders depend on (the cache key)
 TRAINING_FIELDS = ("duration", "vae_samples", "vae_epochs", "trajectories", "summary", "dyn_epochs", "ae_epochs",
                    "centre_weight")
@@ -167,6 +169,8 @@ def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, A
         return _identify(objective, decoder, grid, settings, seed, "random" if name == "random-15" else "bo")
     if name == "ae-cf-bo":
         return _handoff(objective, decoders["ae-cf-5"], space, settings, seed)
+    if name == "ae-cf-bo-gn":
+        return _handoff_step(objective, decoders["ae-cf-5"], space, settings, seed)
     decoder = REMBO(space, dim=5, seed=seed) if name == "rembo-5" else decoders[name]
     return _identify(objective, decoder, Grid.for_decoder(decoder, points_per_dim=settings.points_per_dim),
                      settings, seed, "bo")
@@ -199,6 +203,21 @@ def _handoff(objective: Any, decoder: Any, space: Any, settings: Settings, seed:
         warnings.simplefilter("ignore")
         return continue_in(first, objective, Identity(space), budget=settings.budget, seed=seed,
                            n=settings.candidates, progress=False)
+
+
+def _handoff_step(objective: Recorder, decoder: Any, space: Any, settings: Settings, seed: int) -> Any:
+    """``ae-cf-bo`` up to ``budget`` - (D + 4) evaluations (at least ``handoff`` + 1), then one counted
+    Gauss-Newton step over all parameters from its best θ; returns the hand-over's result."""
+    from belief.least_squares import gauss_newton_step
+
+    search = max(settings.budget - (space.dim + 4), settings.handoff + 1)
+    result = _handoff(objective, decoder, space, replace(settings, budget=search), seed)
+    objective.count_residuals = True
+    try:
+        gauss_newton_step(objective, np.asarray(result.best_theta.values, dtype=float))
+    finally:
+        objective.count_residuals = False
+    return result
 
 
 def score(name: str, log: list, result: Any, held_out: Any, truth: np.ndarray, space: Any) -> dict[str, Any]:

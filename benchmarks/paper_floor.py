@@ -1,6 +1,6 @@
 """Why a trained decoder helps or not: what the dynamics network sees of θ, and each decoder's floor.
 
-    .venv/bin/python benchmarks/paper_floor.py [--truths 2] [--chain 1 3 6]
+    .venv/bin/python benchmarks/paper_floor.py [--truths 2] [--chain 1 3 6] [--spread-only]
 
 Uses the decoders and the dynamics network that benchmarks/paper.py trains (same settings, same cache).
 Prints
@@ -15,7 +15,12 @@ Prints
 * per decoder and truth (nominal, then draws inside the box as in paper.py): the largest parameter
   error of decode(encode(θ*)) in %, the fitting error E there, and E at the latent grid point
   nearest to encode(θ*) (the search's resolution), next to E(θ*) itself. A decoder whose
-  decode(encode(θ*)) has E far above E(θ*) cannot reach the truth at any budget.
+  decode(encode(θ*)) has E far above E(θ*) cannot reach the truth at any budget;
+* per decoder, where its image lies in the parameter box (u = (θ - lower) / width): the mean
+  |u - 0.5| over the decoded cells of its latent grid, and the share of coordinates within 1 % of
+  a face (uniform θ: 0.25 and 2 %), then the same over the cells nearest encode(θ_k) for 64 Sobol
+  θ_k of the box. An image on the faces makes a quasi-random initial design start far from any
+  interior truth.
 """
 from __future__ import annotations
 
@@ -38,6 +43,23 @@ def floor_row(decoder, truth: np.ndarray, objective, points_per_dim: int) -> tup
     snapped = bounds[:, 0] + np.round((np.clip(z, bounds[:, 0], bounds[:, 1]) - bounds[:, 0]) / step) * step
     back, grid = decoder.decode(z[None])[0], decoder.decode(snapped[None])[0]
     return float(100 * np.max(np.abs(back - truth) / np.abs(truth))), float(objective(back)), float(objective(grid))
+
+
+def image_spread(decoder, points_per_dim: int, *, n_prior: int = 64) -> tuple[float, float, float, float]:
+    """(mean |u - 0.5|, share of u within 0.01 of a face) over the decoded grid, then over the cells
+    nearest encode(θ_k) for ``n_prior`` Sobol θ_k of the box (module docstring)."""
+    from scipy.stats import qmc
+
+    from belief.grid import Grid
+
+    grid = Grid.for_decoder(decoder, points_per_dim=points_per_dim)
+    space = decoder.space
+    theta = space.lower + qmc.Sobol(space.dim, scramble=True, seed=0).random(n_prior) * (space.upper - space.lower)
+    out = []
+    for cells in (np.arange(grid.size), grid.nearest(np.atleast_2d(decoder.encode(theta)))):
+        u = space.to_unit(decoder.decode(grid.points[cells]))
+        out += [float(np.mean(np.abs(u - 0.5))), float(np.mean((u < 0.01) | (u > 0.99)))]
+    return tuple(out)
 
 
 def chained(data, m: int, rows_per_horizon: int):
@@ -78,6 +100,7 @@ def main() -> None:
     parser.add_argument("--truths", type=int, default=2, help="truths drawn inside the box (besides nominal)")
     parser.add_argument("--cache", default=str(ROOT / ".cache" / "tensegrid"))
     parser.add_argument("--chain", type=int, nargs="+", default=[1], help="target horizons, in stored horizons")
+    parser.add_argument("--spread-only", action="store_true", help="only the table of where each image lies")
     args = parser.parse_args()
     from physics import TrajectoryError
     from physics.parameters import ParameterSpace
@@ -85,6 +108,13 @@ def main() -> None:
     warnings.simplefilter("ignore")
     space, settings, cache = ParameterSpace.t6(), Settings(), Path(args.cache)
     decoders = train_decoders(space, settings, cache)
+    print("| decoder | grid: mean abs(u - 0.5) | grid: on a face | prior design: mean abs(u - 0.5) | prior design: on a face |")
+    print("|---|---|---|---|---|")
+    for name, decoder in decoders.items():
+        spread = image_spread(decoder, settings.points_per_dim)
+        print(f"| {name} | {spread[0]:.3f} | {spread[1]:.0%} | {spread[2]:.3f} | {spread[3]:.0%} |", flush=True)
+    if args.spread_only:
+        return
     visibility(space, settings, cache, args.chain)
     truths = [("nominal", space.nominal)] + [(f"box{k + 1}", space.sample(1, seed=1000 + k)[0])
                                              for k in range(args.truths)]

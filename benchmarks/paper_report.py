@@ -1,8 +1,15 @@
-"""Tables and figure of benchmarks/paper.py from its JSON rows (one per problem and method).
+"""Tables and figure of benchmarks/paper.py from its JSON rows (one per problem, seed and method).
+
+A *run* below is one (truth, noise level, seed): runs with other seeds of the same truth count
+apart, as their noise and search draws differ.
 
 * held-out E at the best-so-far θ after n evaluations and after t seconds, per sensor-noise level:
   mean ± std over problems of log10 E, and the mean rank of each method (1 = lowest held-out
   error on that problem; tied methods share the mean of their ranks);
+* paired against one method (``REFERENCE``, the project's best): per budget and other method, the
+  mean difference of log10 held-out E over the runs both made, its standard error
+  (std / sqrt(n)), and on how many runs the reference was lower, tied (|difference| < ``TIE``)
+  or higher; a difference within two standard errors is not a difference the runs can show;
 * parameter error |θ̂ - θ*| / θ* in % of the final best θ, mean ± std over problems (the paper's Table I);
 * the posterior's verdicts (methods that return a belief): parameters flagged identified, how many of
   them lie within 1 % of the truth (posterior mean), and how often the 90 % interval holds the truth.
@@ -38,7 +45,7 @@ def _at_seconds(row: dict[str, Any], t: float) -> float:
 def _table(rows: list[dict[str, Any]], methods: list[str], points: list[float], at: Any, label: str) -> None:
     problems = sorted({_problem(r) for r in rows})
     by = {(r["method"], _problem(r)): r for r in rows}
-    print(f"\nheld-out E at the best θ so far, by {label}: mean ± std of log10 E over {len(problems)} problems "
+    print(f"\nheld-out E at the best θ so far, by {label}: mean ± std of log10 E over {len(problems)} runs "
           f"(mean rank, 1 = best)")
     print("| method | " + " | ".join(f"{p:g}" for p in points) + " |")
     print("|---|" + "---|" * len(points))
@@ -55,6 +62,38 @@ def _table(rows: list[dict[str, Any]], methods: list[str], points: list[float], 
             logs = np.log10([at(by[(m, prob)], p) for prob in problems if (m, prob) in by])
             logs = logs[np.isfinite(logs)]
             cells.append(f"{logs.mean():.2f} ± {logs.std():.2f} ({np.mean(ranks[m][p]):.1f})" if len(logs) else "—")
+        print(f"| {m} | " + " | ".join(cells) + " |")
+
+
+#: the method the paired table compares every other one against, and the |Δ log10 E| counted as a tie
+REFERENCE, TIE = "ae-cf-bo-gn", 0.005
+
+
+def _paired(rows: list[dict[str, Any]], methods: list[str], points: list[float]) -> None:
+    """Per budget n and method m: Δ = log10 E_REFERENCE(n) - log10 E_m(n) over shared runs,
+    printed as mean ± std/sqrt(k) [lower/tied/higher] (negative: the reference is lower)."""
+    by = {(r["method"], _problem(r)): r for r in rows}
+    problems = sorted({_problem(r) for r in rows if r["method"] == REFERENCE})
+    others = [m for m in methods if m != REFERENCE]
+    if not problems or not others:
+        return
+    print(f"\n{REFERENCE} against each method, by evaluations: mean Δ log10 E ± standard error "
+          f"[{REFERENCE} lower / tied within {TIE} / higher]")
+    print("| method | " + " | ".join(f"{p:g}" for p in points) + " |")
+    print("|---|" + "---|" * len(points))
+    for m in others:
+        shared = [prob for prob in problems if (m, prob) in by]
+        cells = []
+        for p in points:
+            d = np.array([np.log10(_at_evaluations(by[(REFERENCE, prob)], p))
+                          - np.log10(_at_evaluations(by[(m, prob)], p)) for prob in shared])
+            d = d[np.isfinite(d)]
+            if not len(d):
+                cells.append("—")
+                continue
+            se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+            cells.append(f"{d.mean():+.2f} ± {se:.2f} [{int((d < -TIE).sum())}/{int((abs(d) <= TIE).sum())}/"
+                         f"{int((d > TIE).sum())}]")
         print(f"| {m} | " + " | ".join(cells) + " |")
 
 
@@ -90,8 +129,8 @@ def _verdict_table(rows: list[dict[str, Any]], methods: list[str]) -> None:
         print(f"| {m} | {flagged} | {within} | {held}/{total} |")
 
 
-#: line colours by method order: matplotlib's ten defaults, then black
-PALETTE = (*(f"C{k}" for k in range(10)), "black")
+#: line colours by method order: matplotlib's ten defaults, then black and dark red
+PALETTE = (*(f"C{k}" for k in range(10)), "black", "darkred")
 #: methods drawn dashed: the peers a user would pick instead of the project's methods
 PEERS = ("cma-es", "botorch")
 
@@ -118,12 +157,13 @@ def _figure(rows: list[dict[str, Any]], methods: list[str], path: Path) -> None:
                 logs = np.array([[np.log10(at(r, p)) for p in grid] for r in sel])
                 mean, std = np.nanmean(logs, axis=0), np.nanstd(logs, axis=0)
                 color = PALETTE[k % len(PALETTE)]
-                ax.plot(grid, mean, label=m, color=color, linestyle="--" if m in PEERS else "-")
+                ax.plot(grid, mean, label=m, color=color, linestyle="--" if m in PEERS else "-",
+                        linewidth=2.2 if m == REFERENCE else 1.3)
                 ax.fill_between(grid, mean - std, mean + std, alpha=0.08, color=color)
             ax.set_xlabel(xlabel)
             ax.set_ylabel("log10 held-out E, best θ so far")
         row_axes[0].set_title(f"sensor noise {noise * 1000:g} mm: mean ± std over "
-                              f"{len({_problem(r) for r in same})} problems")
+                              f"{len({_problem(r) for r in same})} runs (truth, seed)")
     axes[0][1].legend(fontsize=8, ncol=2)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
@@ -131,7 +171,7 @@ def _figure(rows: list[dict[str, Any]], methods: list[str], path: Path) -> None:
 
 
 def summarize(path: Path, *, figure: Path | None = None) -> None:
-    """Print the three tables of the rows in ``path`` and draw the figure to ``figure``."""
+    """Print the tables of the rows in ``path`` and draw the figure to ``figure``."""
     rows = _rows(path)
     if not rows:
         print(f"no rows in {path}")
@@ -146,6 +186,7 @@ def summarize(path: Path, *, figure: Path | None = None) -> None:
         print(f"\n## sensor noise {noise:g} m")
         _table(same, methods, points, _at_evaluations, "evaluations")
         _table(same, methods, [round(t_max * f, 1) for f in (0.1, 0.25, 0.5, 1.0)], _at_seconds, "seconds")
+        _paired(same, methods, points)
     _parameter_table(rows, methods)
     _verdict_table(rows, methods)
     if figure is not None:
