@@ -148,6 +148,33 @@ def summarize(rows: list[dict]) -> None:
         second = sum(len(r["found"]) > 1 and r["found"][1] == other[0] for r in rs) if name in MIXES else "-"
         print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(named):>5} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
               f"{ratio:>18} {est:>24} {str(second):>9}")
+    details(rows)
+
+
+def details(rows: list[dict]) -> None:
+    """The figures behind the table: the largest after/before ratios, the top evidence where
+    nothing should be claimed, and every contest between effects that would each be found
+    (margin = evidence of the true effect - that of the best other; which flop favoured it)."""
+    ratios = sorted(((r["held_after"] / r["held_before"], r["scenario"], r["seed"]) for r in rows
+                     if r.get("held_after") is not None), reverse=True)
+    print(f"\nafter/before: {sum(v <= 0.5 for v, _, _ in ratios)} of {len(ratios)} runs at most 0.5; largest: "
+          + ", ".join(f"{name} seed {seed} {v:.2f}" for v, name, seed in ratios[:3]))
+    for name in ("none", "outside"):
+        evidence = [r["top_evidence"] for r in rows if r["scenario"] == name]
+        if evidence:
+            print(f"{name}: top evidence {min(evidence):.1f} to {max(evidence):.1f} over {len(evidence)} runs")
+    contests = [r for r in rows if len(r.get("contenders") or {}) > 1 and r["truth"]]
+    print(f"\ncontests ({len(contests)} of the {sum('contenders' in r for r in rows)} runs that record contenders)")
+    for r in sorted(contests, key=lambda r: (r["scenario"], r["seed"])):
+        c, true = r["contenders"], r["truth"][0]
+        if true not in c:
+            print(f"{r['scenario']} seed {r['seed']}: the true effect is no contender; top {r['top']}")
+            continue
+        other = max((k for k in c if k != true), key=lambda k: c[k]["evidence"])
+        print(f"{r['scenario']} seed {r['seed']}: top {r['top']}, margin {c[true]['evidence'] - c[other]['evidence']:.1f} "
+              f"over {other}; fitted flops favour the truth {c[true]['fit_error'] < c[other]['fit_error']}, held-out "
+              f"{c[true]['held_error'] < c[other]['held_error']} (E_H {c[true]['held_error']:.4f} against "
+              f"{c[other]['held_error']:.4f}); alternatives {r.get('alternatives', [])}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -97,6 +97,23 @@ def _paired(rows: list[dict[str, Any]], methods: list[str], points: list[float])
         print(f"| {m} | " + " | ".join(cells) + " |")
 
 
+def _facts(rows: list[dict[str, Any]], methods: list[str]) -> None:
+    """Per noise level the mean log10 held-out E at the truth; per method the median wall time of a
+    run; and on how many runs ae-cf-bo and bo-15 end at the same best θ."""
+    print()
+    for noise in sorted({r["noise"] for r in rows}):
+        truth = {_problem(r): r["heldout_truth"] for r in rows if r["noise"] == noise and "heldout_truth" in r}
+        if truth:
+            print(f"noise {noise:g} m: held-out E at the truth, mean log10 {np.mean(np.log10(list(truth.values()))):.2f}")
+    print("median wall time per run: " + ", ".join(
+        f"{m} {np.median([r['wall'] for r in rows if r['method'] == m]):.0f} s" for m in methods))
+    by = {(r["method"], _problem(r)): r for r in rows}
+    pairs = [(by[("ae-cf-bo", p)], by[("bo-15", p)]) for m, p in by if m == "ae-cf-bo" and ("bo-15", p) in by]
+    if pairs:
+        same = sum(np.allclose(a["best_theta"], b["best_theta"]) for a, b in pairs)
+        print(f"ae-cf-bo and bo-15 end at the same best θ on {same} of {len(pairs)} runs")
+
+
 def _parameter_table(rows: list[dict[str, Any]], methods: list[str]) -> None:
     print("\nparameter error of the final best θ in %, mean ± std over problems")
     print("| parameter | " + " | ".join(methods) + " |")
@@ -187,6 +204,7 @@ def summarize(path: Path, *, figure: Path | None = None) -> None:
         _table(same, methods, points, _at_evaluations, "evaluations")
         _table(same, methods, [round(t_max * f, 1) for f in (0.1, 0.25, 0.5, 1.0)], _at_seconds, "seconds")
         _paired(same, methods, points)
+    _facts(rows, methods)
     _parameter_table(rows, methods)
     _verdict_table(rows, methods)
     if figure is not None:
