@@ -123,7 +123,7 @@ def _local_fit(objective: Any, best_theta: np.ndarray, marg: Any, noise: NoiseLe
         info["std"] = [float(v) for v in std]
         ratio = std / np.maximum(step.width / np.sqrt(12.0), 1e-300)
     return refit_conflicts(marg, step.theta, step.error, step.start_error, noise_var=noise.total,
-                           nats=cfg.refit_nats), ratio, info
+                           nats=cfg.refit_nats, fraction=cfg.refit_fraction), ratio, info
 
 
 def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], model: GPSurrogate, *,

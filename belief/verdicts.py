@@ -32,10 +32,13 @@ parameter j therefore combines these pieces of evidence:
    (:func:`belief.least_squares.gauss_newton_step`, D + 4 evaluations). Run only when some
    parameter would otherwise be identified or weakly identified.
    (a) If the step lowers E by more than ``refit_nats`` nats, (E(θ̂) − E(θ′)) / (2σ²) >
-   refit_nats (minimizer mode: by more than 1 % of E(θ̂)), the data prefer a θ′ that P never
-   weighed: the search stopped short of the best fit (a decoder whose image misses it, a budget
-   too small for the dimension). A parameter whose θ′_j lies outside its interval -> not
-   identified.
+   refit_nats, or by more than the fraction ``refit_fraction`` of E(θ̂) (minimizer mode: by more
+   than 1 % of E(θ̂)), the data prefer a θ′ that P never weighed: the search stopped short of the
+   best fit (a decoder whose image misses it, a budget too small for the dimension). A parameter
+   whose θ′_j lies outside its interval -> not identified. The fraction is needed because σ²
+   estimated from the residuals at θ̂ counts as noise the very misfit the step removes: then
+   E(θ̂)/(2σ²) is about n_eff/2, and with few effective observations (noiseless data, a search
+   short of the truth) no gain can reach ``refit_nats``.
    (b) The local posterior std over all parameters, sqrt diag (JᵀJ/σ²)⁻¹ in the unit box,
    divided by the box's uniform std 1/√12, enters rule 1 when larger than P's ratio. A decoder
    that holds fixed a direction trading off with θ_j (μ in S = J²/(2 m² μ), with m searched)
@@ -73,10 +76,14 @@ class VerdictConfig:
     min_reach: float = 0.5
     refit: bool = True
     refit_nats: float = 3.0
+    refit_fraction: float = 0.5
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.refit_nats) and self.refit_nats > 0):
             raise BeliefError(f"VerdictConfig.refit_nats must be a positive number of nats, got {self.refit_nats!r}.")
+        if not (np.isfinite(self.refit_fraction) and 0 < self.refit_fraction < 1):
+            raise BeliefError(f"VerdictConfig.refit_fraction must lie in (0, 1) (the share of E a local step must "
+                              f"remove), got {self.refit_fraction!r}.")
         if not (np.isfinite(self.min_reach) and 0 <= self.min_reach <= 1):
             raise BeliefError(f"VerdictConfig.min_reach must lie in [0, 1], got {self.min_reach!r}.")
         if not (0 < self.identified_ratio <= self.weak_ratio <= 1):
@@ -139,18 +146,20 @@ def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified
 
 
 def refit_conflicts(marginals: xr.Dataset, theta: Sequence[float], error: float, start_error: float, *,
-                    noise_var: float | None, nats: float) -> dict[str, str]:
-    """Parameters whose interval excludes a significantly better local fit θ′ (module docstring, rule 5).
+                    noise_var: float | None, nats: float, fraction: float = 0.5) -> dict[str, str]:
+    """Parameters whose interval excludes a significantly better local fit θ′ (module docstring, rule 5a).
 
     ``theta``: θ′ (D,); ``error``, ``start_error``: E(θ′) and E(θ̂); ``noise_var``: σ² of the
-    likelihood (None in minimizer mode). Returns parameter -> reason (only conflicting ones).
+    likelihood (None in minimizer mode); significant: a gain above ``nats`` or above ``fraction``
+    of E(θ̂). Returns parameter -> reason (only conflicting ones).
     """
     gain = float(start_error) - float(error)
+    share = gain / max(float(start_error), 1e-300)
     if noise_var is not None:
-        score, significant = gain / (2.0 * noise_var), gain / (2.0 * noise_var) > nats
-        how = f"{score:.3g} nats"
+        score = gain / (2.0 * noise_var)
+        significant, how = score > nats or share > fraction, f"{score:.3g} nats, {share:.0%} of E"
     else:
-        significant, how = gain > 0.01 * float(start_error), f"{gain / max(float(start_error), 1e-300):.1%} of E"
+        significant, how = share > 0.01, f"{share:.1%} of E"
     if not significant:
         return {}
     out: dict[str, str] = {}

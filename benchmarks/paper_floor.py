@@ -19,9 +19,10 @@ Prints
 * per decoder, where its image lies in the parameter box (u = (θ - lower) / width): the mean
   |u - 0.5| over the decoded cells of its latent grid, and the share of coordinates within 1 % of
   a face (uniform θ: 0.25 and 2 %), then the same over the cells nearest encode(θ_k) for 64 Sobol
-  θ_k of the box. An image on the faces makes a quasi-random initial design start far from any
-  interior truth; and how coarse the full space's candidates are: the median distance from 200
-  uniform points of the unit box to the nearest of paper.py's 4096 Sobol candidates (seed 0).
+  θ_k of the box (benchmarks/paper_dev.py pulls the image inward with a centre prior and measures
+  what that does to the search); and how coarse the full space's candidates are: the median
+  distance from 200 uniform points of the unit box to the nearest of paper.py's 4096 Sobol
+  candidates (seed 0).
 """
 from __future__ import annotations
 

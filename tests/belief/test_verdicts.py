@@ -118,6 +118,18 @@ def test_a_significantly_better_local_fit_outside_the_interval_is_a_conflict() -
         VerdictConfig(refit_nats=0.0)
 
 
+def test_a_local_step_that_halves_e_is_a_conflict_whatever_the_estimated_noise() -> None:
+    """Rule 5a: σ² estimated from the residuals at θ̂ (E(θ̂)/σ² = 5) caps any gain at 2.5 nats, so
+    a step that removes 73 % of E counts by its share; one that removes 40 % does not."""
+    m = _marg(mean=[0.5, 0.5], std=[0.01, 0.01], lower=[0.48, 0.48], upper=[0.52, 0.52])
+    out = refit_conflicts(m, [0.6, 0.5], error=0.27, start_error=1.0, noise_var=0.2, nats=3.0)
+    assert list(out) == ["x0"] and "73% of E" in out["x0"]
+    assert refit_conflicts(m, [0.6, 0.5], error=0.6, start_error=1.0, noise_var=0.2, nats=3.0) == {}
+    assert refit_conflicts(m, [0.6, 0.5], error=0.6, start_error=1.0, noise_var=0.2, nats=3.0, fraction=0.3) != {}
+    with pytest.raises(BeliefError, match="refit_fraction"):
+        VerdictConfig(refit_fraction=1.0)
+
+
 def test_the_local_ratio_over_all_parameters_caps_the_narrowing() -> None:
     """Rule 5b: P narrow (4 % of the prior) but the full-space local std is 60 % or 90 % of the box's."""
     m = _marg(mean=[0.5, 0.5, 0.5], std=[0.01, 0.01, 0.01], lower=[0.48, 0.48, 0.48], upper=[0.52, 0.52, 0.52])
