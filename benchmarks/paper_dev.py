@@ -4,9 +4,10 @@
 
 ae-cf-5 (the autoencoder trained through the network on the counterfactual target) decodes much
 of its latent box onto the faces of the parameter box (``paper_floor.py --spread-only``). A
-centre prior (``DynamicsAutoencoder(centre_weight=λ)``: λ · 12 s · mean (u' - ½)² added to the loss,
-s the θ-induced variance of the network's output; embeddings.autoencoder) pulls the image inward. Whether that helps the search is a question for truths the
-comparison does not score, so that its answer cannot be tuned to paper.py's problems:
+centre prior (``DynamicsAutoencoder(centre_weight=λ)``: λ · 12 s · mean (u' - ½)² added to the
+loss, s the θ-induced variance of the network's output; embeddings.autoencoder) pulls the image
+inward. Whether that helps the search is asked on truths the comparison does not score, so that
+the answer cannot be tuned to paper.py's problems:
 
 * per λ in ``--weights``: ae-cf-5 retrained with that λ (λ = 0 is paper.py's cached ae-cf-5),
   and where its image lies (mean |u - 0.5| over the decoded grid, share of coordinates within 1 %
