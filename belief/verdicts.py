@@ -146,7 +146,8 @@ def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified
 
 
 def refit_conflicts(marginals: xr.Dataset, theta: Sequence[float], error: float, start_error: float, *,
-                    noise_var: float | None, nats: float, fraction: float = 0.5) -> dict[str, str]:
+                    noise_var: float | None, nats: float,
+                    fraction: float = VerdictConfig.refit_fraction) -> dict[str, str]:
     """Parameters whose interval excludes a significantly better local fit θ′ (module docstring, rule 5a).
 
     ``theta``: θ′ (D,); ``error``, ``start_error``: E(θ′) and E(θ̂); ``noise_var``: σ² of the

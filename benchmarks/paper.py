@@ -140,15 +140,22 @@ def dynamics_network(space: Any, settings: Settings, cache: Path, folder: Path, 
 
 def _dynamics_decoder(name: str, space: Any, settings: Settings, cache: Path, folder: Path) -> Any:
     """The decoder ``name`` trained through the (cached) dynamics network."""
-    from embeddings import ActiveSubspace, DynamicsAutoencoder, TrainingConfig
+    from embeddings import ActiveSubspace
 
     dynamics, train, _ = dynamics_network(space, settings, cache, folder, counterfactual=name == "ae-cf-5")
     if name == "active-5":
         active = ActiveSubspace.fit(space, dynamics, train, dim=5)
         print(f"{active!r}")
         return active
-    weight = settings.centre_weight if name == "ae-dyn-prior-5" else 0.0
-    return DynamicsAutoencoder(space, dim=5, centre_weight=weight).fit(dynamics, train, training=TrainingConfig(
+    return train_autoencoder(space, dynamics, train, settings,
+                             settings.centre_weight if name == "ae-dyn-prior-5" else 0.0)
+
+
+def train_autoencoder(space: Any, dynamics: Any, train: Any, settings: Settings, centre_weight: float) -> Any:
+    """The 5-D DynamicsAutoencoder trained through ``dynamics`` on ``train`` with ``centre_weight``."""
+    from embeddings import DynamicsAutoencoder, TrainingConfig
+
+    return DynamicsAutoencoder(space, dim=5, centre_weight=centre_weight).fit(dynamics, train, training=TrainingConfig(
         epochs=settings.ae_epochs, batch_size=128, lr=3e-3), progress=True)
 
 

@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from paper import ROOT, Settings, cache_folder, dynamics_network, run_problem, train_decoders  # noqa: E402
+from paper import (ROOT, Settings, cache_folder, dynamics_network, run_problem, train_autoencoder,  # noqa: E402
+                   train_decoders)
 from paper_floor import image_spread  # noqa: E402
 
 BUDGETS = (5, 10, 20, 30, 45, 60)
@@ -37,7 +38,7 @@ BUDGETS = (5, 10, 20, 30, 45, 60)
 
 def centre_decoder(space, settings: Settings, cache: Path, weight: float, out: Path):
     """ae-cf-5 trained with ``centre_weight=weight`` (saved under ``out``); weight 0 is paper.py's own."""
-    from embeddings import DynamicsAutoencoder, TrainingConfig, load_decoder
+    from embeddings import load_decoder
 
     if weight == 0:
         return train_decoders(space, settings, cache)["ae-cf-5"]
@@ -45,8 +46,7 @@ def centre_decoder(space, settings: Settings, cache: Path, weight: float, out: P
     if not path.exists():
         folder = cache_folder(settings, cache)
         dynamics, train, _ = dynamics_network(space, settings, cache, folder, counterfactual=True)
-        DynamicsAutoencoder(space, dim=5, centre_weight=weight).fit(dynamics, train, training=TrainingConfig(
-            epochs=settings.ae_epochs, batch_size=128, lr=3e-3), progress=True).save(path)
+        train_autoencoder(space, dynamics, train, settings, weight).save(path)
     return load_decoder(path, space)
 
 
