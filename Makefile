@@ -13,7 +13,7 @@ $(BIN)/python:
 # torch first, pinned, so pip takes the CPU wheel on disk instead of a multi-GB CUDA build.
 $(STAMP): $(BIN)/python pyproject.toml
 	$(BIN)/pip install torch==2.13.0
-	$(BIN)/pip install -e '.[test,bench]'
+	$(BIN)/pip install -e '.[test,bench,testbed]'
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -1,0 +1,114 @@
+"""Named data sets of the testbed robot: each one robot, three flops and a held-out flop.
+
+A data set is one robot (θ and effects) settled for 3 s on a face; from that same rest state it
+makes three flops toward headings 120° apart (rotated by an angle drawn from the seed) and one
+held-out flop with another actuation (5 cables per side, ±25 %, 0.3-1.1 s, heading between two
+of the others). Files: ``flop_0.nc``, ``flop_1.nc``, ``flop_2.nc``, ``heldout_0.nc`` and
+``truth.json`` (θ, effects, seed). Same name and seed, same files.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from testbed.controller import Flop
+from testbed.effects import Effects
+from testbed.params import NOMINAL, draw_theta
+from testbed.record import Observation, record_flop, to_dataset
+from testbed.robot import TestbedRobot
+
+__all__ = ["DATASETS", "Robot", "robot_for", "make_dataset", "cached_dataset", "SETTLE_S"]
+
+SETTLE_S = 3.0
+
+
+@dataclass(frozen=True)
+class Robot:
+    """What a data set's robot is: θ (15 names, SI) and its hidden effects."""
+
+    theta: dict
+    effects: Effects
+
+
+def _slope(rng: np.random.Generator) -> Effects:
+    return Effects(slope=float(np.deg2rad(3.0)), slope_azimuth=float(rng.uniform(0, 2 * np.pi)))
+
+
+def _mass(rng: np.random.Generator) -> Effects:
+    return Effects(extra_mass=0.5, extra_mass_rod=int(rng.integers(6)), extra_mass_at=0.4)
+
+
+#: name -> (draws θ*?, the effects given the seed's generator)
+DATASETS: dict[str, tuple[bool, Callable[[np.random.Generator], Effects]]] = {
+    "nominal": (False, lambda rng: Effects()),
+    "perturbed": (True, lambda rng: Effects()),
+    "slope": (False, _slope),
+    "marker_offset": (False, lambda rng: Effects(marker_offset=(0.02, -0.015, 0.01))),
+    "drag": (False, lambda rng: Effects(drag=3.0)),
+    "actuator_delay": (False, lambda rng: Effects(actuator_delay=0.05)),
+    "hysteresis": (False, lambda rng: Effects(hysteresis=0.3)),
+    "extra_mass": (False, _mass),
+    "ground_viscosity": (False, lambda rng: Effects(ground_viscosity=20.0)),
+}
+
+
+def robot_for(name: str, seed: int) -> tuple[Robot, np.random.Generator]:
+    """The robot of data set ``name`` at ``seed`` and the generator that goes on to draw the rest."""
+    if name not in DATASETS:
+        raise KeyError(f"unknown testbed data set {name!r}; choose from {sorted(DATASETS)}.")
+    rng = np.random.default_rng([seed, sorted(DATASETS).index(name)])
+    perturbed, effects = DATASETS[name]
+    theta = draw_theta(rng) if perturbed else dict(NOMINAL)
+    return Robot(theta, effects(rng)), rng
+
+
+def flops_for(rng: np.random.Generator) -> dict[str, Flop]:
+    """The three flops and the held-out flop of a data set (headings rotated by the seed)."""
+    offset = float(rng.uniform(0, 2 * np.pi))
+    flops = {f"flop_{k}": Flop(heading=offset + 2 * np.pi * k / 3) for k in range(3)}
+    flops["heldout_0"] = Flop(heading=offset + np.pi / 3, change=0.25, n_cables=5, start=0.3, stop=1.1)
+    return flops
+
+
+def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = Observation(),
+                 duration: float = 3.0, effects: Effects | None = None) -> list[Path]:
+    """Write data set ``name`` for ``seed`` into folder ``out``; returns the trajectory files.
+    ``effects`` replaces the data set's own (for combinations)."""
+    robot_def, rng = robot_for(name, seed)
+    if effects is not None:
+        robot_def = replace(robot_def, effects=effects)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    robot = TestbedRobot(robot_def.theta, robot_def.effects)
+    try:
+        for _ in range(int(round(SETTLE_S / robot.dt))):
+            robot.step(robot.rest)
+        settled = robot.snapshot()
+        paths = []
+        for k, (label, flop) in enumerate(flops_for(rng).items()):
+            robot.restore(settled)
+            rec = record_flop(robot, flop, duration=duration, sample_rate=obs.sample_rate)
+            ds = to_dataset(rec, robot, obs, np.random.default_rng([seed, k, 7]),
+                            attrs={"testbed_dataset": name, "testbed_seed": seed, "testbed_flop": repr(flop)})
+            paths.append(out / f"{label}.nc")
+            ds.to_netcdf(paths[-1])
+        truth = {"dataset": name, "seed": seed, "theta": robot.theta, "effects": robot.effects.active()}
+        (out / "truth.json").write_text(json.dumps(truth, indent=1))
+        return paths
+    finally:
+        robot.close()
+
+
+def cached_dataset(name: str, seed: int, *, noise: float = 1e-3, missing: float = 0.0,
+                   root: "str | Path" = Path(".cache") / "testbed") -> dict[str, Path]:
+    """The files of data set ``name`` at ``seed`` (label -> path), made on first use under ``root``
+    (a folder per name, seed and observation, ignored by git)."""
+    folder = Path(root) / (f"{name}-s{seed}-n{noise:g}" + (f"-m{missing:g}" if missing else ""))
+    labels = ("flop_0", "flop_1", "flop_2", "heldout_0")
+    if not all((folder / f"{label}.nc").exists() for label in labels):
+        make_dataset(name, seed, folder, obs=Observation(noise=noise, missing=missing))
+    return {label: folder / f"{label}.nc" for label in labels}

@@ -1,0 +1,165 @@
+"""The foreign testbed (benchmarks/testbed): its physical laws, its independence, its files."""
+from __future__ import annotations
+
+import ast
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from physics import load_trajectory
+from testbed.controller import Flop
+from testbed.datasets import make_dataset
+from testbed.effects import Effects
+from testbed.params import NOMINAL, closed_faces
+from testbed.record import record_flop
+from testbed.robot import TestbedRobot
+
+TESTBED = Path(__file__).resolve().parents[2] / "benchmarks" / "testbed"
+LIBRARY = {"physics", "belief", "embeddings", "planners", "criticism", "tensegrid"}
+
+
+def _settled(effects: Effects = Effects(), seconds: float = 3.0) -> TestbedRobot:
+    robot = TestbedRobot(NOMINAL, effects)
+    for _ in range(int(seconds / robot.dt)):
+        robot.step(robot.rest)
+    return robot
+
+
+@pytest.fixture(scope="module")
+def nominal_files(tmp_path_factory) -> dict[str, Path]:
+    out = tmp_path_factory.mktemp("nominal")
+    return {p.stem: p for p in make_dataset("nominal", 0, out)}
+
+
+def test_testbed_imports_nothing_from_the_library():
+    files = sorted(TESTBED.glob("*.py"))
+    assert len(files) >= 5
+    for path in files:
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else (
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            for name in names:
+                assert name.split(".")[0] not in LIBRARY, f"{path.name} imports {name}"
+
+
+@settings(max_examples=60, deadline=None)
+@given(stretch=st.floats(-0.2, 0.2), rate=st.floats(-5.0, 5.0), hysteresis=st.floats(0.0, 0.9))
+def test_cables_never_push(stretch, rate, hysteresis):
+    robot = TestbedRobot.__new__(TestbedRobot)            # the force law alone, no world
+    robot.k, robot.c, robot.dt = 800.0, 200.0, 1e-3
+    robot.effects = Effects(hysteresis=hysteresis)
+    robot.rest = np.full(24, 0.8)
+    length = robot.rest + stretch
+    robot.last_length = length - rate * robot.dt
+    force = robot.cable_forces(length)
+    assert np.all(force >= 0)
+    if stretch <= 0:
+        assert np.all(force == 0)                         # a slack cable gives nothing, even shortening fast
+    assert np.all(force <= 2 * robot.k * max(stretch, 0) + 1e-9)
+
+
+def test_slack_cable_exerts_no_force_in_the_world():
+    robot = _settled(seconds=0.5)
+    rest = robot.rest.copy()
+    rest[0] = 2.0                                        # far longer than the cable: slack
+    robot.rest = rest
+    robot.step(rest)
+    assert robot.tensions()[0] == 0.0
+    robot.close()
+
+
+def test_settles_on_a_face_and_stays_there():
+    robot = _settled()
+    before = robot.nodes()
+    base = tuple(sorted(int(i) for i in np.argsort(before[:, 2])[:3]))
+    for _ in range(2000):
+        robot.step(robot.rest)
+    after, tension = robot.nodes(), robot.tensions()
+    robot.close()
+    assert base in closed_faces()
+    assert tuple(sorted(int(i) for i in np.argsort(after[:, 2])[:3])) == base
+    assert np.abs(after - before).max() < 0.01
+    assert 100 < tension.mean() < 200
+
+
+def test_flops_move_the_centre_of_mass_and_pass_the_loader(nominal_files):
+    assert set(nominal_files) == {"flop_0", "flop_1", "flop_2", "heldout_0"}
+    for path in nominal_files.values():
+        ds = load_trajectory(path)
+        com = ds["nodes"].values.mean(axis=1)
+        assert np.linalg.norm(com[-1, :2] - com[0, :2]) >= 0.3, path.name
+        assert ds.attrs["length_reference"] == "encoder"
+        assert json.loads(ds.attrs["testbed_theta"])["rod_length"] == NOMINAL["rod_length"]
+    truth = json.loads((next(iter(nominal_files.values())).parent / "truth.json").read_text())
+    assert truth["effects"] == {}
+
+
+def _short_run(name: str, seed: int) -> np.ndarray:
+    """Observed nodes of 0.3 s of the data set's first flop (short planning trials, noise on)."""
+    from testbed.datasets import flops_for, robot_for
+    from testbed.record import Observation, to_dataset
+    spec, rng = robot_for(name, seed)
+    robot = TestbedRobot(spec.theta, spec.effects)
+    for _ in range(300):
+        robot.step(robot.rest)
+    flop = flops_for(rng)["flop_0"]
+    rec = record_flop(robot, Flop(heading=flop.heading, trial=0.03), duration=0.3)
+    ds = to_dataset(rec, robot, Observation(noise=1e-3), np.random.default_rng(seed), attrs={})
+    robot.close()
+    return ds["nodes"].values
+
+
+def test_same_seed_same_data_other_seed_other_data():
+    first, again, other = _short_run("perturbed", 3), _short_run("perturbed", 3), _short_run("perturbed", 4)
+    assert np.array_equal(first, again)
+    assert not np.allclose(first, other, atol=1e-3)
+
+
+def test_slope_tilts_the_ground_in_the_world_frame():
+    effects = Effects(slope=np.deg2rad(5.0), slope_azimuth=0.7)
+    robot = _settled(effects)
+    nodes = robot.nodes()
+    base = nodes[np.argsort(nodes @ effects.ground_normal())[:3]]
+    normal = np.cross(base[1] - base[0], base[2] - base[0])
+    normal *= np.sign(normal[2]) / np.linalg.norm(normal)
+    robot.close()
+    assert np.degrees(np.arccos(normal @ effects.ground_normal())) < 1.0
+    assert np.degrees(np.arccos(normal[2])) > 4.0            # the resting face is tilted, not level
+
+
+def test_marker_offset_and_missing_samples_reach_only_the_observation():
+    from testbed.record import Observation, to_dataset
+    robot = _settled(Effects(marker_offset=(0.02, -0.015, 0.01)), seconds=0.5)
+    rec = record_flop(robot, Flop(), duration=0.2)
+    ds = to_dataset(rec, robot, Observation(noise=0.0, missing=0.3), np.random.default_rng(0), attrs={})
+    robot.close()
+    nodes = ds["nodes"].values
+    lost = np.isnan(nodes).any(axis=(1, 2))
+    assert 0 < lost.sum() < len(lost)
+    np.testing.assert_allclose(nodes[~lost] - rec.nodes[~lost], np.broadcast_to([0.02, -0.015, 0.01], nodes[~lost].shape))
+
+
+def test_actuator_delay_holds_the_rest_lengths_back():
+    moved = {}
+    for delay in (0.0, 0.05):
+        robot = _settled(Effects(actuator_delay=delay), 0.3)
+        start = robot.rest.copy()
+        for _ in range(40):                                  # 40 ms of a command to shorten by 10 %
+            robot.step(start * 0.9)
+        moved[delay] = float((start - robot.rest).mean())
+        robot.close()
+    assert moved[0.05] == 0.0                                # the command has not arrived yet
+    assert moved[0.0] > 0.03                                 # 40 ms at 1.5 m/s, clamped by maxTens
+
+
+def test_extra_mass_adds_its_mass():
+    from testbed.robot import rod_inertia
+    plain = rod_inertia(NOMINAL, Effects(), 2)
+    heavy = rod_inertia(NOMINAL, Effects(extra_mass=0.5, extra_mass_rod=2, extra_mass_at=0.4), 2)
+    assert heavy[0] == pytest.approx(plain[0] + 0.5)
+    assert heavy[1] == pytest.approx(0.5 * 0.4 / heavy[0])
+    assert plain[0] == pytest.approx(3.0, rel=0.05)          # SUPERball: about 3 kg per rod
