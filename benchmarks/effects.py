@@ -25,6 +25,15 @@ against the true one; for mixes how often the second effect is found on pass 2.
     .venv/bin/python benchmarks/effects.py --seeds 2 --scenarios actuator_delay none
     .venv/bin/python benchmarks/effects.py --summarize benchmarks/results/effects-actuation.jsonl  # the table again
 
+``--source testbed`` runs the same protocol on the foreign robot (benchmarks/testbed, Bullet): its
+data sets ``nominal`` (scenario ``none``), ``slope``, ``marker_offset``, ``drag``,
+``actuator_delay``, ``hysteresis``, ``extra_mass`` and ``ground_viscosity`` at nominal θ, with
+0.2 mm noise and 3 s flops: diagnose identifies on ``flop_0`` and ``flop_1`` and holds out
+``heldout_0`` (another actuation). The true effect counts as found when the catalog effect that
+models it (TESTBED_TRUTH) is; rows go to benchmarks/results/effects-testbed.jsonl.
+
+    .venv/bin/python benchmarks/effects.py --source testbed --seeds 2
+
 Runs go seed by seed over the scenarios; a (scenario, seed, --held-out, --budget) already in
 ``--out`` is skipped, so an interrupted run resumes and a rerun prints the table of its rows.
 """
@@ -39,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from belief.diagnose import DiagnoseConfig, diagnose
-from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+from physics import FlopController, ParameterSpace, TrajectoryError, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, model_space
 
 #: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
@@ -51,6 +60,10 @@ SIZES = {"ground_slope": {"slope_x": 0.08}, "air_drag": {"drag": 8.0}, "ground_v
          "sensor_bias": {"sensor_bias_z": 0.02}, "end_cap_radius": {"cap_radius_change": -0.029},
          "point_mass": {"point_mass": 1.5}, "encoder_offset": {"encoder_offset": 0.05}}
 MIXES = {"mix": ("ground_slope", "actuator_delay"), "actuator+contact": ("rate_limited_actuator", "end_cap_radius")}
+#: testbed data set -> the catalog effect that models its hidden effect (None: no effect)
+TESTBED_TRUTH = {"nominal": None, "slope": "ground_slope", "marker_offset": "sensor_bias", "drag": "air_drag",
+                 "actuator_delay": "actuator_delay", "hysteresis": "cable_hysteresis", "extra_mass": "point_mass",
+                 "ground_viscosity": "ground_viscosity"}
 
 
 def scenario_effects(name: str) -> list:
@@ -98,15 +111,37 @@ def larger_effect(name: str, data: list, truth: dict) -> str:
     return max(costs, key=costs.get)
 
 
-def run_one(name: str, seed: int, budget: int, held_out: str = "actuation") -> dict:
+def testbed_data(name: str, seed: int) -> tuple[list, list[str], dict]:
+    """Testbed data set ``name`` at ``seed`` (0.2 mm noise): two flops and the held-out flop, the
+    catalog effect that models its hidden one, and the hidden effect's true values."""
+    from testbed.datasets import cached_dataset
+    files = cached_dataset(name, seed, noise=0.0002)
+    truth = json.loads((files["flop_0"].parent / "truth.json").read_text())
+    data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
+    return data, [TESTBED_TRUTH[name]] if TESTBED_TRUTH[name] else [], truth["effects"]
+
+
+def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own") -> dict:
+    if source == "testbed":
+        data, truth_names, true_values = testbed_data(name, seed)
+        return diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
+                            larger=truth_names[0] if truth_names else None)
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
+    larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
+    return diagnose_row(name, seed, budget, data, [e.name for e in effects],
+                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger)
+
+
+def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
+                 held_out: str, larger: str | None) -> dict:
+    """Diagnose on data[0:2], hold out data[2]; the benchmark's row (JSON-ready)."""
     passes = 2 if name in MIXES else 1
     start = time.perf_counter()
     d = diagnose(data, held_out=[2], config=DiagnoseConfig(budget=budget, passes=passes, seed=seed), progress=False)
     first = d.passes[0].criticism
     top = first.ranking[0] if first.ranking else None
-    row = {"scenario": name, "seed": seed, "truth": [e.name for e in effects], "top": top.name if top else None,
+    row = {"scenario": name, "seed": seed, "truth": truth, "top": top.name if top else None,
            "top_explained": top.explained if top else None, "top_values": top.values if top else None,
            "top_evidence": top.evidence if top else None, "floor": first.floor.name,
            "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
@@ -116,8 +151,7 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation") -> d
                           for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],
            "held_before": sum(d.passes[0].held_before.values()), "seconds": time.perf_counter() - start,
-           "true_values": {k: v for e in effects for k, v in SIZES[e.name].items()}, "held_out": held_out}
-    row["larger"] = larger_effect(name, data, truth) if name in MIXES else (row["truth"] or [None])[0]
+           "true_values": true_values, "held_out": held_out, "larger": larger}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
     return row
@@ -141,7 +175,7 @@ def summarize(rows: list[dict]) -> None:
         ratios = [r["held_after"] / r["held_before"] for r in rs if r["held_after"] is not None]
         ratio = f"{np.median(ratios):.2f} ({max(ratios):.2f})" if ratios else "-"
         est = "-"
-        if first:
+        if first and name in SIZES:
             key = next(iter(SIZES[first]))
             vals = [r["top_values"].get(key) for r in rs if r["top"] == first]
             est = f"{np.median(vals):.4g} ({SIZES[first][key]:.4g})" if vals else "-"
@@ -159,7 +193,7 @@ def details(rows: list[dict]) -> None:
                      if r.get("held_after") is not None), reverse=True)
     print(f"\nafter/before: {sum(v <= 0.5 for v, _, _ in ratios)} of {len(ratios)} runs at most 0.5; largest: "
           + ", ".join(f"{name} seed {seed} {v:.2f}" for v, name, seed in ratios[:3]))
-    for name in ("none", "outside"):
+    for name in ("none", "outside", "nominal"):
         evidence = [r["top_evidence"] for r in rows if r["scenario"] == name]
         if evidence:
             print(f"{name}: top evidence {min(evidence):.1f} to {max(evidence):.1f} over {len(evidence)} runs")
@@ -185,14 +219,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--held-out", choices=sorted(HELD_OUT), default="actuation",
                     help="the held-out flop: another actuation (default) or only another heading")
-    ap.add_argument("--scenarios", nargs="*",
-                    default=[e.name for e in catalog()] + ["none", "outside", "mix", "actuator+contact"])
+    ap.add_argument("--source", choices=["own", "testbed"], default="own",
+                    help="data from this project's model (default) or from the foreign testbed (Bullet)")
+    ap.add_argument("--scenarios", nargs="*", default=None,
+                    help="default: every catalog effect, none, outside, mix, actuator+contact (own); every "
+                    "testbed data set (testbed)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}.jsonl)")
     args = ap.parse_args(argv)
     if args.summarize:
         summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
         return 0
+    if args.scenarios is None:
+        args.scenarios = (list(TESTBED_TRUTH) if args.source == "testbed"
+                          else [e.name for e in catalog()] + ["none", "outside", "mix", "actuator+contact"])
+    if args.source == "testbed":
+        args.held_out = "testbed"
     out = Path(args.out or f"benchmarks/results/effects-{args.held_out}.jsonl")
     out.parent.mkdir(parents=True, exist_ok=True)
     saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
@@ -204,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in args.scenarios:
             if (name, seed, args.held_out, args.budget) in done:
                 continue
-            row = {**run_one(name, seed, args.budget, args.held_out), "budget": args.budget}
+            row = {**run_one(name, seed, args.budget, args.held_out, args.source), "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")

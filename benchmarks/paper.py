@@ -18,6 +18,13 @@ latent grid, then BO in the full 15-D space with them as its initial design (bel
 ``ae-cf-bo-gn`` stops that BO D + 4 evaluations early and spends them on one Gauss-Newton step
 from its best θ, off the candidate grid (belief.gauss_newton_step).
 
+``--source testbed`` takes the problems from the foreign robot (benchmarks/testbed, Bullet): θ* of
+its ``nominal`` data set (seed 0) and of ``--truths`` ``perturbed`` ones (seeds 1..), observed
+through the flops ``flop_0`` and ``flop_1`` cut to ``Settings.duration``, scored on ``heldout_0``
+and ``flop_2``; ``--noise`` sets the data sets' noise. Rows go to ``--out``/testbed/paper.jsonl.
+
+    .venv/bin/python benchmarks/paper.py --source testbed --truths 3 --noise 0.001 --methods bo-15 ae-cf-bo-gn
+
 Each (problem, method) appends one JSON row to ``--out``/paper.jsonl, and a (problem, method) that
 already has its row there is skipped, so an interrupted run resumes; ``--summarize`` prints
 the tables (held-out error by budget, parameter error in % per parameter, verdicts) and draws
@@ -93,15 +100,17 @@ def cache_folder(settings: Settings, cache: Path) -> Path:
     return cache / "paper" / hashlib.sha256(json.dumps(trained_by, sort_keys=True).encode()).hexdigest()[:12]
 
 
-def train_decoders(space: Any, settings: Settings, cache: Path) -> dict[str, Any]:
-    """The trained 5-D decoders (VAE, the dynamics-aware autoencoder without and with its centre prior,
-    the active subspace), each trained once per ``settings`` and cached under ``cache/paper/<key>/``."""
+def train_decoders(space: Any, settings: Settings, cache: Path, methods: "tuple[str, ...]" = METHODS) -> dict[str, Any]:
+    """The trained 5-D decoders ``methods`` need (VAE, the dynamics-aware autoencoder without and with its
+    centre prior, the active subspace, ae-cf-5 for the hand-over), each trained once per ``settings``
+    and cached under ``cache/paper/<key>/``."""
     from embeddings import VAE, TrainingConfig, load_decoder
 
     folder = cache_folder(settings, cache)
     folder.mkdir(parents=True, exist_ok=True)
+    needed = {m for m in methods if m in TRAINED} | ({"ae-cf-5"} if {"ae-cf-bo", "ae-cf-bo-gn"} & set(methods) else set())
     decoders = {}
-    for name in TRAINED:
+    for name in (n for n in TRAINED if n in needed):
         path = folder / f"{name}.json"
         if not path.exists():
             if name == "vae-5":
@@ -267,8 +276,28 @@ def _done(path: Path) -> set[tuple]:
     return {(r["truth_kind"], r["truth_index"], r["noise"], r["seed"], r["budget"], r["method"]) for r in rows}
 
 
+def testbed_problem(name: str, index: int, noise: float, settings: Settings) -> tuple[np.ndarray, list, list]:
+    """(θ*, fitted flops, held-out flops) of testbed data set ``name`` at seed ``index``, cut to
+    ``settings.duration`` seconds."""
+    from physics import ParameterSpace, load_trajectory
+    from testbed.datasets import cached_dataset
+
+    files = cached_dataset(name, index, noise=noise)
+    truth = json.loads((files["flop_0"].parent / "truth.json").read_text())["theta"]
+
+    def load(label: str) -> Any:
+        ds = load_trajectory(files[label])
+        return ds.sel(time=slice(0.0, settings.duration + 1e-9))
+
+    return (ParameterSpace.t6().as_array(truth), [load("flop_0"), load("flop_1")],
+            [load("heldout_0"), load("flop_2")])
+
+
 def run_problem(space: Any, truth: np.ndarray, noise: float, problem: dict[str, Any], methods: list[str],
-                decoders: dict[str, Any], settings: Settings, out: Path, seed: int) -> None:
+                decoders: dict[str, Any], settings: Settings, out: Path, seed: int,
+                data: tuple[list, list] | None = None) -> None:
+    """Run ``methods`` on one problem (data simulated by this project's model unless ``data`` =
+    (fitted, held-out) trajectories are given) and append their rows."""
     from physics import TrajectoryError
 
     done = _done(out / "paper.jsonl")
@@ -276,8 +305,8 @@ def run_problem(space: Any, truth: np.ndarray, noise: float, problem: dict[str, 
     methods = [m for m in methods if (*key, m) not in done]
     if not methods:
         return
-    fit = observe(space, truth, FIT_FLOPS, settings, noise, seed)
-    held = observe(space, truth, HELD_OUT_FLOPS, settings, noise, seed + 100)
+    fit, held = data or (observe(space, truth, FIT_FLOPS, settings, noise, seed),
+                         observe(space, truth, HELD_OUT_FLOPS, settings, noise, seed + 100))
     with TrajectoryError(fit, loss="squared", windows=3, n_workers=0) as objective, \
             TrajectoryError(held, loss="squared", windows=1, n_workers=0) as held_out:
         for name in methods:
@@ -304,6 +333,8 @@ def main() -> None:
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results"))
     parser.add_argument("--cache", default=str(ROOT / ".cache" / "tensegrid"))
     parser.add_argument("--summarize", default=None, help="only print the tables of saved rows (a paper.jsonl)")
+    parser.add_argument("--source", choices=["own", "testbed"], default="own",
+                        help="problems from this project's model (default) or from the foreign testbed (Bullet)")
     args = parser.parse_args()
     if args.summarize:
         summarize(Path(args.summarize), figure=Path(args.summarize).with_name("paper_heldout.png"))
@@ -313,9 +344,18 @@ def main() -> None:
     settings = Settings.smoke() if args.smoke else Settings()
     if args.budget:
         settings = Settings(**{**asdict(settings), "budget": args.budget})
-    space, out = ParameterSpace.t6(), Path(args.out)
+    space, out = ParameterSpace.t6(), Path(args.out) / ("testbed" if args.source == "testbed" else "")
     out.mkdir(parents=True, exist_ok=True)
-    decoders = train_decoders(space, settings, Path(args.cache))
+    decoders = train_decoders(space, settings, Path(args.cache), tuple(args.methods))
+    if args.source == "testbed":
+        for index in range(0 if args.smoke else args.truths + 1):
+            name = "nominal" if index == 0 else "perturbed"
+            for noise in args.noise:
+                truth, fit, held = testbed_problem(name, index, noise, settings)
+                run_problem(space, truth, noise, {"truth_kind": f"testbed-{name}", "truth_index": index},
+                            args.methods, decoders, settings, out, args.seed, data=(fit, held))
+        summarize(out / "paper.jsonl", figure=out / "paper_heldout.png")
+        return
     truths = [("nominal", 0, space.nominal)] + [("box", k + 1, space.sample(1, seed=1000 + k)[0])
                                                 for k in range(0 if args.smoke else args.truths)]
     for kind, index, truth in truths:

@@ -1,6 +1,6 @@
 """The testbed SUPERball in Bullet: six compound rods, a ground plane, 24 cables applied as forces.
 
-Modelling choices (the testbed's own; docs in benchmarks/testbed/README.md):
+Modelling choices (the testbed's own; docs/testbed.md lists them all):
 
 - each rod is one Bullet body made of three coaxial cylinder shapes (end, middle, end), with the
   mass and inertia of those cylinders (ends: ``density``, ``radius``; middle: ``density_mp``,
