@@ -1,5 +1,6 @@
 """What we believe about θ: grids over a latent box, the GP surrogate (pyro), log expected
-improvement, the posterior P over the grid and its Belief object with verdicts, noise rules for
+improvement, the posterior P over the grid and its Belief object with verdicts (and the parameters
+pinned at a bound of the box, evidence of model inadequacy), noise rules for
 data with model error, proposers and the identification driver (Zhu et al. 2018, Algorithm 1),
 and its SQLite journal.
 
@@ -18,6 +19,7 @@ from belief.errors import (
     SurrogateError,
 )
 from belief.belief import Belief
+from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
 from belief.errors import BudgetWarning
 from belief.grid import Grid, SobolCandidates, candidates_from_config
 from belief.identify import identify, problem_fingerprint
@@ -51,5 +53,5 @@ __all__ = [
     "credible_mask", "credible_region", "entropy", "marginals",
     "Journal", "Record",
     "identify", "problem_fingerprint", "IdentificationResult", "Carried", "carry_over", "continue_in",
-    "LocalStep", "StepConfig", "gauss_newton_step",
+    "LocalStep", "StepConfig", "gauss_newton_step", "AT_BOUND_TOLERANCE", "AtBound", "at_bounds",
 ]

@@ -13,6 +13,9 @@
        evaluated θ and one Gauss-Newton step (D + 4 evaluations); a much better fit outside a
        parameter's interval, or a local std wider than P's, withdraws its verdict (belief.verdicts
        rule 5)
+    7  parameters the data narrow whose fitted θ (the step's θ′, else the best evaluated θ) sits at
+       a bound of the box are not identified and listed in attrs["at_bounds"] (belief.verdicts
+       rule 6, belief.bounds)
 
 Objectives without ``residuals`` fall back to the "iid" rule; objectives without segments skip
 step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff and the budget warning.
@@ -26,13 +29,14 @@ from typing import Any, Sequence
 import numpy as np
 
 from belief.belief import Belief
+from belief.bounds import AtBound, at_bounds
 from belief.errors import BeliefError, BudgetWarning
 from belief.least_squares import gauss_newton_step
 from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate, SurrogateConfig
-from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, refit_conflicts, segment_conflicts,
-                             verified_mass)
+from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, pinned, refit_conflicts,
+                             segment_conflicts, verified_mass)
 from physics.errors import PhysicsError
 
 __all__ = ["NoiseLevel", "noise_level", "assess"]
@@ -126,6 +130,18 @@ def _local_fit(objective: Any, best_theta: np.ndarray, marg: Any, noise: NoiseLe
                            nats=cfg.refit_nats, fraction=cfg.refit_fraction), ratio, info
 
 
+def _pinned(space: Any, best_theta: Sequence[float], local: dict[str, Any], marg: Any, cfg: VerdictConfig,
+            ratio: np.ndarray | None) -> tuple[AtBound, ...]:
+    """Rule 6 (belief.verdicts): parameters the data narrow at a bound of the fitted θ, which is the
+    local fit's θ′ when the step moved (its best point), else the best evaluated θ."""
+    best = np.asarray(best_theta, dtype=float)
+    fitted, source = best, "best evaluation"
+    if "theta" in local and not np.array_equal(np.asarray(local["theta"], dtype=float), best):
+        fitted, source = np.asarray(local["theta"], dtype=float), "local fit"
+    found = at_bounds(space, fitted, tolerance=cfg.bound_tolerance, source=source)
+    return pinned(marg, found, weak_ratio=cfg.weak_ratio, local_ratio=ratio)
+
+
 def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], model: GPSurrogate, *,
            config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
            verdict_config: VerdictConfig | None = None) -> Belief:
@@ -165,15 +181,18 @@ def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], mode
     marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts=conflicts, config=vcfg)
     local: dict[str, Any] = {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"}
+    extra, ratio = {}, None
     if vcfg.refit and any(v != "not identified" for v in verdicts):
         extra, ratio, local = _local_fit(objective, best.theta, marg, noise, vcfg)
-        verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts={**extra, **conflicts},
-                                   config=vcfg, local_ratio=ratio)
+    at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
+    verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, config=vcfg, local_ratio=ratio,
+                               conflicts={**extra, **conflicts, **{a.name: a.reason() for a in at_bound}})
     warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim)
     if warn:
         warnings.warn(warn, BudgetWarning, stacklevel=3)
     attrs = {"mode": config.mode, "level": config.level, "noise_var": noise.total, "noise_rule": noise.rule,
              "noise": noise.info, "segments": list(segments), "verified_mass": vmass, "n_evaluations": len(records),
-             "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn, "local_fit": local}
+             "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn, "local_fit": local,
+             "at_bounds": [a.as_dict() for a in at_bound], "bound_tolerance": vcfg.bound_tolerance}
     return Belief(P, theta_cells, space, decoder_config=decoder.config(), grid_config=grid.config(),
                   verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level, grid=grid)

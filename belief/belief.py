@@ -11,7 +11,9 @@ A Belief holds, for the n cells of a latent grid (``Grid`` or ``SobolCandidates`
 - ``verdict`` and ``reason``: per parameter, "identified", "weakly identified" or "not
   identified" and why (given by whoever builds the Belief, e.g. :mod:`belief.assess`; by default
   from P alone, see :func:`default_verdicts`);
-- ``attrs``: free-form JSON-able provenance (noise rule, σ², warnings, ...).
+- ``attrs``: free-form JSON-able provenance (noise rule, σ², warnings, ...); ``attrs["at_bounds"]``
+  lists the parameters pinned at a bound of the box after fitting (:mod:`belief.bounds`, verdict
+  rule 6), read back as :attr:`Belief.at_bounds` and shown in :meth:`Belief.summary`.
 
 It is used without re-running anything: :meth:`sample` draws θ with probability P (a draw is a
 cell's decoded centre, so draws are discrete on the n cells), :meth:`marginals` gives per-parameter
@@ -32,10 +34,11 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 import xarray as xr
 
+from belief.bounds import AT_BOUND_TOLERANCE, AtBound, entries_from_records, inadequacy_text
 from belief.errors import BeliefError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.posterior import entropy, marginals
-from belief.verdicts import VERDICTS, VerdictConfig, reach_reason
+from belief.verdicts import VERDICTS, default_verdicts
 from embeddings import Decoder, decoder_from_config
 from physics.parameters import Parameter, ParameterSpace
 
@@ -47,33 +50,6 @@ FORMAT = "tensegrid.belief/1"
 SUM_TOLERANCE = 1e-6
 #: Parameter fields stored under another variable name (``name`` and ``unit`` are coordinates)
 _FIELD_VARS = {"name": "parameter", "unit": "unit", "lower": "lower_bound", "upper": "upper_bound"}
-
-
-def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
-    """Verdicts from P alone, with ratio_j = std_j / prior_std_j of the marginals ``marg``.
-
-    ratio < 0.5 -> identified, ratio < 0.8 -> weakly identified, else not identified (the default
-    :class:`~belief.verdicts.VerdictConfig` thresholds, without its evidence checks). A parameter
-    the decoder does not vary over the cells (prior_std = 0), or over less than ``min_reach`` of its
-    box (``reach``, :mod:`belief.verdicts` rule 0), is not identified.
-    """
-    cfg = VerdictConfig()
-    verdicts, reasons = [], []
-    reach = marg["reach"].values if "reach" in marg else np.ones(marg.sizes["parameter"])
-    for std, prior, spread in zip(marg["std"].values, marg["prior_std"].values, reach):
-        if not prior > 0:
-            verdicts.append(VERDICTS[2])
-            reasons.append("the decoder does not vary it over the cells (prior std 0): P says nothing about it")
-            continue
-        if spread < cfg.min_reach:
-            verdicts.append(VERDICTS[2])
-            reasons.append(reach_reason(float(spread)))
-            continue
-        r = float(std / prior)
-        verdicts.append(VERDICTS[0] if r < cfg.identified_ratio else VERDICTS[1] if r < cfg.weak_ratio else VERDICTS[2])
-        reasons.append(f"std is {r:.0%} of the prior's (std/prior_std = {r:.3g}; from P alone: identified below "
-                       f"{cfg.identified_ratio:g}, weakly identified below {cfg.weak_ratio:g})")
-    return verdicts, reasons
 
 
 def _jsonable(value: Any, name: str) -> Any:
@@ -188,6 +164,7 @@ class Belief:
         th.setflags(write=False)
         self.theta, self.space, self.level = th, space, float(level)
         self.verdict, self.reason = _check_verdicts(verdicts, reasons, lambda: self._numbers(self.level), space.dim)
+        entries_from_records(self.attrs.get("at_bounds"), space.names)    # fails early on corrupt records
 
     @classmethod
     def from_posterior(cls, P: xr.DataArray, decoder: Decoder, grid: CandidateSet, *,
@@ -223,11 +200,14 @@ class Belief:
     def marginals(self, level: float | None = None) -> xr.Dataset:
         """Per parameter (Dataset over ``parameter``, coordinate ``unit``): ``mean``, ``std``, ``lower``,
         ``upper`` (the ``level`` interval, default ``self.level``), ``map``, ``prior_mean``, ``prior_std``
-        (numbers of :func:`belief.posterior.marginals`), ``verdict``, ``reason`` and ``identified``."""
+        (numbers of :func:`belief.posterior.marginals`), ``verdict``, ``reason``, ``identified`` and
+        ``at_bound`` ("lower" or "upper" for a parameter pinned at that bound, else "")."""
         m = self._numbers(self.level if level is None else level)
         m["verdict"] = ("parameter", np.array(self.verdict, dtype=object))
         m["reason"] = ("parameter", np.array(self.reason, dtype=object))
         m["identified"] = ("parameter", self.identified)
+        sides = {a.name: a.side for a in self.at_bounds}
+        m["at_bound"] = ("parameter", np.array([sides.get(n, "") for n in self.space.names], dtype=object))
         m.attrs = {"level": float(self.level if level is None else level)}
         return m
 
@@ -250,6 +230,11 @@ class Belief:
     def identified(self) -> np.ndarray:
         """Boolean ``D``: verdict == "identified"."""
         return np.array([v == VERDICTS[0] for v in self.verdict], dtype=bool)
+
+    @property
+    def at_bounds(self) -> tuple[AtBound, ...]:
+        """Parameters pinned at a bound of the box after fitting (attrs["at_bounds"], verdict rule 6)."""
+        return entries_from_records(self.attrs.get("at_bounds"), self.space.names)
 
     @property
     def verdicts(self) -> dict[str, tuple[str, str]]:
@@ -283,7 +268,9 @@ class Belief:
         return candidates_from_config(self.grid_config)
 
     def summary(self, truth: Sequence[float] | None = None) -> str:
-        """Plain-text table: one row per parameter (unit, mean, interval, verdict; ``truth`` column if given)."""
+        """Plain-text table: one row per parameter (unit, mean, interval, verdict; ``truth`` column if given);
+        a parameter pinned at a bound has "(at lower/upper bound)" after its verdict, and the "Model
+        inadequacy" block (belief.bounds.inadequacy_text) follows the table."""
         m = self.marginals()
         tr = None if truth is None else np.asarray(truth, dtype=float)
         if tr is not None and tr.shape != (self.space.dim,):
@@ -296,10 +283,12 @@ class Belief:
             row = f"{name:<17}{self.space.units[j]:<9}{m['mean'].values[j]:>11.5g}{lo:>11.5g}{hi:>11.5g}"
             if tr is not None:
                 row += f"{tr[j]:>10.5g}{' ' if lo <= tr[j] <= hi else '!'}"
-            lines.append(row + f"  {self.verdict[j]}")
+            side = m["at_bound"].values[j]
+            lines.append(row + f"  {self.verdict[j]}" + (f" (at {side} bound)" if side else ""))
         lines.append(f"{self.level:.0%} credible intervals; verdict reasons: Belief.verdicts"
                      + ("; '!' marks a truth outside the interval" if tr is not None else ""))
-        return "\n".join(lines)
+        block = inadequacy_text(self.at_bounds, tolerance=self.attrs.get("bound_tolerance", AT_BOUND_TOLERANCE))
+        return "\n".join(lines + ([block] if block else []))
 
     def __repr__(self) -> str:
         ident = [n for n, v in zip(self.space.names, self.verdict) if v == VERDICTS[0]]

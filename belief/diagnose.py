@@ -11,6 +11,11 @@ One pass on trajectories split into *fit* and *held-out* ones:
    criticism, so the extra search of the second identification is not credited to the effect)
    and after, per trajectory.
 
+Each pass also lists the parameters the re-tuning left at a bound of the box (belief.bounds):
+those it moved there from θ̂, and those the identification already found pinned there (verdict
+rule 6). A fit that ends on the box's edge would leave it if it could: model inadequacy, not
+estimates (:func:`retuned_at_bounds`).
+
 Passes repeat (``passes``) until criticism finds nothing. Held-out trajectories never enter an
 identification; the effect fit of criticism uses only the fit trajectories. With one trajectory
 there is nothing to hold out: criticism alternates its time windows between fit and held-out,
@@ -30,6 +35,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from belief.belief import Belief
+from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
 from belief.criticism import Criticism, CriticismConfig, criticize
 from belief.errors import BeliefError
 from belief.grid import SobolCandidates
@@ -37,13 +43,15 @@ from belief.identify import identify
 from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.residuals import residual_dataset, residual_summary
 
-__all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "split_masks"]
+__all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "split_masks", "retuned_at_bounds"]
 
 
 @dataclass(frozen=True)
 class DiagnoseConfig:
     """passes: most effects added; budget: evaluations per identification; candidates: Sobol cells
-    of each identification; horizon, windows: of the error (module docstring); seed: all randomness."""
+    of each identification; horizon, windows: of the error (module docstring); seed: all randomness;
+    bound_tolerance: a re-tuned value within this fraction of the box width of a bound is at it
+    (belief.bounds)."""
 
     passes: int = 2
     budget: int = 40
@@ -52,16 +60,22 @@ class DiagnoseConfig:
     windows: int = 3
     seed: int = 0
     criticism: CriticismConfig = field(default_factory=CriticismConfig)
+    bound_tolerance: float = AT_BOUND_TOLERANCE
 
     def __post_init__(self) -> None:
         if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
             raise BeliefError("DiagnoseConfig needs passes >= 1, budget >= 2, candidates >= budget and horizon >= 1.")
+        if not (isinstance(self.bound_tolerance, (int, float)) and 0 <= self.bound_tolerance < 0.5):
+            raise BeliefError(f"DiagnoseConfig.bound_tolerance must be a fraction of the box width in [0, 0.5), "
+                              f"got {self.bound_tolerance!r}.")
 
 
 @dataclass
 class Pass:
-    """One pass: the model's effects, θ̂ and its parameter names, the criticism, the held-out error
-    per trajectory before, and (when an effect was added) θ̂ and the error after, and the Belief."""
+    """One pass: the model's effects, θ̃ (re-tuned by criticism) and its parameter names, the
+    criticism, the held-out error per trajectory before, and (when an effect was added) θ̂ and the
+    error after, and the Belief; at_bounds: the parameters the re-tuning left at a bound of the box
+    (:func:`retuned_at_bounds`)."""
 
     effects: tuple[str, ...]
     names: tuple[str, ...]
@@ -73,10 +87,12 @@ class Pass:
     theta_after: np.ndarray | None = None
     held_after: dict[str, float] | None = None
     belief_after: Belief | None = None
+    at_bounds: tuple[AtBound, ...] = ()
 
     def estimates(self) -> dict[str, dict[str, Any]]:
         """The added effect's parameters after re-identification: name -> {"value" (best θ),
-        "lower", "upper" (the Belief's credible interval), "level", "verdict"}; empty when nothing was added."""
+        "lower", "upper" (the Belief's credible interval), "level", "verdict", "at_bound" ("lower" or
+        "upper" when pinned there, else "")}; empty when nothing was added."""
         if self.theta_after is None:
             return {}
         names = self.names_after[len(self.names):]
@@ -87,7 +103,7 @@ class Pass:
             for n in names:
                 row = m.sel(parameter=n)
                 out[n].update(lower=float(row["lower"]), upper=float(row["upper"]), level=float(m.attrs["level"]),
-                              verdict=str(row["verdict"].values))
+                              verdict=str(row["verdict"].values), at_bound=str(row["at_bound"].values))
         return out
 
     @property
@@ -122,6 +138,18 @@ def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.nd
     window = np.array([int(s.split("/")[1][1:]) for s in segments])
     held = np.isin(traj, list(held_out)) if len(held_out) else window % 2 == 1
     return ~held, held
+
+
+def retuned_at_bounds(space: Any, start: np.ndarray, retuned: np.ndarray, belief: Belief | None, *,
+                      tolerance: float = AT_BOUND_TOLERANCE) -> tuple[AtBound, ...]:
+    """The parameters at a bound of the re-tuned θ̃ (D,) that the re-tuning moved there from θ̂
+    (``start``, D,), or that the identification's ``belief`` already lists at that bound (verdict
+    rule 6). A value already on the edge at θ̂ that the data do not narrow is left out: BO's best
+    point can sit there by chance (belief.verdicts rule 6)."""
+    known = {(a.name, a.side) for a in (belief.at_bounds if belief is not None else ())}
+    moved = {a.name for a in at_bounds(space, retuned, tolerance=tolerance, start=start)}
+    found = at_bounds(space, retuned, tolerance=tolerance, source="re-tuning")
+    return tuple(a for a in found if a.name in moved or (a.name, a.side) in known)
 
 
 def _held_errors(objective: Any, theta: np.ndarray, held: np.ndarray) -> dict[str, float]:
@@ -194,8 +222,10 @@ def diagnose(trajectories: Sequence[Any], *, held_out: Sequence[int] | None = No
             structure = residual_summary(residual_dataset(model, theta))
             crit = criticize(model, theta, fit=fit, held=held, effects=tries, config=config.criticism,
                              structure=structure, progress=progress)
+            pinned = retuned_at_bounds(model.space, theta, crit.theta, ident.belief, tolerance=config.bound_tolerance)
             theta = crit.theta          # re-tuned on the fit trajectories: the fair "before"
-            step = Pass(tuple(e.name for e in added), model.space.names, theta, crit, _held_errors(model, theta, held))
+            step = Pass(tuple(e.name for e in added), model.space.names, theta, crit, _held_errors(model, theta, held),
+                        at_bounds=pinned)
             passes.append(step)
             if crit.found is None:
                 break
@@ -210,6 +240,7 @@ def diagnose(trajectories: Sequence[Any], *, held_out: Sequence[int] | None = No
             step.belief_after = ident.belief
         settings = {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
                     "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
+                    "bound_tolerance": config.bound_tolerance,
                     "fit_trajectories": fit_idx, "segments": list(full.segments)}
         return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings)
     finally:

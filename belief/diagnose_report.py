@@ -18,14 +18,16 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
 from belief.diagnose import Diagnosis
 from belief.residuals import residual_dataset
 
-__all__ = ["diagnosis_text", "write_report"]
+__all__ = ["diagnosis_text", "diagnosis_record", "write_report"]
 
 
 def diagnosis_text(d: Diagnosis) -> str:
-    """Ranking per pass and the held-out error before and after, as plain text."""
+    """Ranking per pass, the parameters the re-tuning left at a bound (model inadequacy) and the
+    held-out error before and after, as plain text."""
     out = []
     scope = (f"held-out trajectories {d.held_out}" if d.held_out
              else "one trajectory: odd windows held out from the effect fit, errors in-sample")
@@ -39,6 +41,10 @@ def diagnosis_text(d: Diagnosis) -> str:
             out.append(f"residual share by phase: {ph}; largest on nodes {s['top_nodes']}; "
                        f"by axis " + ", ".join(f"{a} {v:.0%}" for a, v in s["axis_share"].items())
                        + (f"; NaN samples skipped per trajectory {s['skipped']}" if any(s["skipped"]) else ""))
+        pinned = inadequacy_text(p.at_bounds, after="the re-tuning",
+                                 tolerance=d.settings.get("bound_tolerance", AT_BOUND_TOLERANCE))
+        if pinned:
+            out.append(pinned)
         if p.added is None:
             out.append(f"verdict: {p.criticism.verdict} (no effect explains enough of the held-out residual "
                        "left by the re-tuned model)")
@@ -58,7 +64,21 @@ def _estimate(name: str, e: dict[str, Any]) -> str:
     """``name=value`` with the credible interval and verdict when the re-identification has a Belief."""
     if "lower" not in e:
         return f"{name}={e['value']:.4g}"
-    return f"{name}={e['value']:.4g} ({e['level']:.0%} interval [{e['lower']:.4g}, {e['upper']:.4g}], {e['verdict']})"
+    side = f", at {e['at_bound']} bound" if e.get("at_bound") else ""
+    return (f"{name}={e['value']:.4g} ({e['level']:.0%} interval [{e['lower']:.4g}, {e['upper']:.4g}], "
+            f"{e['verdict']}{side})")
+
+
+def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
+    """The JSON-able record of diagnosis.json: settings, and per pass the criticism, θ̃ ("theta"),
+    the parameters at a bound after the re-tuning ("at_bounds", belief.bounds.AtBound.as_dict),
+    the held-out errors and the re-identified estimates."""
+    return {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
+            "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
+                        "added": p.added, "held_after": p.held_after, "estimates": p.estimates(),
+                        "theta_after": None if p.theta_after is None else dict(zip(p.names_after, p.theta_after.tolist())),
+                        "theta": dict(zip(p.names, p.theta.tolist())),
+                        "at_bounds": [a.as_dict() for a in p.at_bounds]} for p in d.passes]}
 
 
 def _objective(d: Diagnosis, trajectories: Sequence[Any], effects: Sequence[Any]) -> Any:
@@ -182,12 +202,7 @@ def write_report(d: Diagnosis, trajectories: Sequence[Any], out: "str | Path") -
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "report.txt", out / "diagnosis.json"]
     paths[0].write_text(diagnosis_text(d) + "\n")
-    record = {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
-              "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
-                          "added": p.added, "held_after": p.held_after, "estimates": p.estimates(),
-                          "theta_after": None if p.theta_after is None else dict(zip(p.names_after, p.theta_after.tolist())),
-                          "theta": dict(zip(p.names, p.theta.tolist()))} for p in d.passes]}
-    paths[1].write_text(json.dumps(record, indent=1, default=float))
+    paths[1].write_text(json.dumps(diagnosis_record(d), indent=1, default=float))
     effects, theta = _final(d)
     before = residual_dataset(_objective(d, trajectories, []), d.passes[0].theta)
     after = residual_dataset(_objective(d, trajectories, effects), theta)

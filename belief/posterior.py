@@ -19,6 +19,21 @@ GP expectation of it::
 - with the log transform, f = log(E - shift) ~ N(m, s^2), the expectation is taken by
   Gauss-Hermite quadrature (32 nodes) over f.
 
+**Evaluated floor** (``PosteriorConfig.floor = "best"``, default): E is floored at the smallest
+evaluated error E_min, E -> max(E, E_min), so that no cell outweighs the best evaluation::
+
+    P(z) ∝ E_f[ exp(-max(E(z), E_min) / (2 sigma^2)) ] <= exp(-E_min / (2 sigma^2))
+
+The GP's claim that a cell nobody evaluated beats every evaluation (its mean dipping below E_min,
+or its lower tail) is what expected improvement bets on, not evidence: in 15-D with tens of
+evaluations its lengthscales cannot resolve a valley a few per cent of the box wide, and
+exp(-E/(2 sigma^2)) turns an extrapolated improvement of a fraction of E_min into many nats (the
+log transform lets the tail reach E_min - c, c = the median excess error). Without the floor, P
+then piles on such cells and its interval can exclude the best evaluated θ (testbed flops,
+docs/identification.md). With it, a cell predicted at or below E_min ties with the best
+evaluation, weighted by the GP's probability that it does. ``floor="zero"`` keeps only E >= 0
+(the unfloored posterior, for comparison).
+
 sigma^2 is given, or the objective's ``noise_var`` when it knows it, else set by a noise rule of
 :mod:`belief.noise` (``PosteriorConfig.noise_rule``): "ess" (default) tempers the independent-noise
 estimate by the effective number of residuals, which the residuals' autocorrelation in time and
@@ -45,7 +60,9 @@ from belief.errors import BeliefError
 from belief.noise import NOISE_RULES, iid_noise_var
 
 __all__ = [
+    "FLOORS",
     "PosteriorConfig",
+    "error_floor",
     "estimate_noise_var",
     "log_likelihood",
     "posterior_from_surrogate",
@@ -57,13 +74,18 @@ __all__ = [
 
 _GH_X, _GH_W = np.polynomial.hermite.hermgauss(32)
 
+#: where the likelihood floors E: at the best evaluated error, or at 0 only
+FLOORS = ("best", "zero")
+
 
 @dataclass(frozen=True)
 class PosteriorConfig:
     """Options of the posterior (validated).
 
     ``mode``: "likelihood" or "minimizer"; ``noise_var``: sigma^2 in units of E (None = from the
-    objective or estimated by ``noise_rule``, "ess" or "iid", :mod:`belief.noise`); ``discrepancy``:
+    objective or estimated by ``noise_rule``, "ess" or "iid", :mod:`belief.noise`); ``floor``: "best"
+    floors E at the smallest evaluated error in the likelihood (no cell outweighs the best
+    evaluation; module docstring), "zero" only at 0; ``discrepancy``:
     δ_0 of the "ess" rule, the relative excess error that costs one nat at least;
     ``n_samples``/``max_subset``: minimizer-mode sampling;
     ``level``: credible level of the marginal interval; ``identified_ratio``: a parameter is
@@ -73,6 +95,7 @@ class PosteriorConfig:
     mode: Literal["likelihood", "minimizer"] = "likelihood"
     noise_var: float | None = None
     noise_rule: str = "ess"
+    floor: str = "best"
     discrepancy: float = 0.05
     n_samples: int = 2000
     max_subset: int = 1000
@@ -84,6 +107,9 @@ class PosteriorConfig:
             raise BeliefError(f"posterior mode must be 'likelihood' or 'minimizer', got {self.mode!r}.")
         if self.noise_rule not in NOISE_RULES:
             raise BeliefError(f"noise_rule must be one of {NOISE_RULES}, got {self.noise_rule!r}.")
+        if self.floor not in FLOORS:
+            raise BeliefError(f"floor must be one of {FLOORS} (E floored at the best evaluated error, or at 0), "
+                              f"got {self.floor!r}.")
         if not (np.isfinite(self.discrepancy) and self.discrepancy >= 0):
             raise BeliefError(f"discrepancy must be a fraction >= 0 of E_min (e.g. 0.05), got {self.discrepancy!r}.")
         if self.noise_var is not None and not (np.isfinite(self.noise_var) and self.noise_var > 0):
@@ -103,14 +129,20 @@ def estimate_noise_var(errors: np.ndarray, *, n_observations: int = 1, dim: int 
     return iid_noise_var(errors, n_observations=n_observations, dim=dim)
 
 
-def log_likelihood(mean: np.ndarray, var: np.ndarray, *, noise_var: float, shift: float | None) -> np.ndarray:
-    """log E_f[exp(-E / (2 sigma^2))] per cell, from the GP of t (``shift`` None: t = E; else t = log(E - shift)).
+def log_likelihood(mean: np.ndarray, var: np.ndarray, *, noise_var: float, shift: float | None,
+                   floor: float = 0.0) -> np.ndarray:
+    """log E_f[exp(-max(E, F) / (2 sigma^2))] per cell, from the GP of t (``shift`` None: t = E; else
+    t = log(E - shift)); F = max(``floor``, 0) (module docstring: the evaluated floor).
 
-    ``mean``, ``var``: shape ``n`` in t units -> shape ``n``. See the module docstring.
+    ``mean``, ``var``: shape ``n`` in t units -> shape ``n``. With a = 1 / (2 sigma^2):
+
+    t = E, f ~ N(m, s^2), closed form::
+
+        E[exp(-a max(f, F))] = Phi((F - m)/s) exp(-a F) + exp(-a m + a^2 s^2 / 2) Phi((m - F - a s^2)/s)
 
     Log transform: Gauss-Hermite over f with nodes f_k = m + sqrt(2) s x_k (increasing in k) and
-    weights w_k / sqrt(pi); with a = 1 / (2 sigma^2), E_k = max(exp(f_k), -shift) + shift and
-    G_k = a (E_k - shift) (computed as exp(f_k + log a), so no a * huge product overflows)::
+    weights w_k / sqrt(pi); E_k = max(exp(f_k) + shift, F) and G_k = a (E_k - shift) (computed as
+    max(exp(f_k + log a), a (F - shift)), so no a * huge product overflows)::
 
         log sum_k (w_k / sqrt(pi)) exp(-a E_k)
           = log(w_max / sqrt(pi)) - a shift - G_0 + log sum_k (w_k / w_max) exp(-(G_k - G_0))
@@ -125,16 +157,17 @@ def log_likelihood(mean: np.ndarray, var: np.ndarray, *, noise_var: float, shift
     m = np.asarray(mean, dtype=float)
     s = np.sqrt(np.maximum(np.asarray(var, dtype=float), 1e-300))
     a = 1.0 / (2.0 * noise_var)
+    F = max(float(floor), 0.0)
     if shift is None:
-        term = -a * m + 0.5 * a**2 * s**2 + log_ndtr((m - a * s**2) / s)
-        return np.logaddexp(log_ndtr(-m / s), term)
+        term = -a * m + 0.5 * a**2 * s**2 + log_ndtr((m - F - a * s**2) / s)
+        return np.logaddexp(log_ndtr((F - m) / s) - a * F, term)
     chunk = 4096
     sx = (np.sqrt(2.0) * _GH_X)[:, None]
     kmax = int(np.argmax(_GH_W))
     wr = (_GH_W / _GH_W[kmax])[:, None]
     loga = np.log(a)
     cap = min(700.0 + loga, 709.0)          # f <= min(700, 709 - log a): a exp(f) stays finite
-    floor = -a * shift if shift < 0 else None
+    g_floor = a * (F - shift) if F > shift else None
     out = np.empty_like(m)
     buf = np.empty((_GH_X.size, min(chunk, m.size)))
     for st in range(0, m.size, chunk):
@@ -146,14 +179,22 @@ def log_likelihood(mean: np.ndarray, var: np.ndarray, *, noise_var: float, shift
         if not np.all(mc + sx[-1] * sc <= cap):
             np.minimum(G, cap, out=G)
         np.exp(G, out=G)                    # a exp(f_k)
-        if floor is not None:
-            np.maximum(G, floor, out=G)     # G_k = a (E_k - shift)
+        if g_floor is not None:
+            np.maximum(G, g_floor, out=G)   # G_k = a (E_k - shift), E_k >= F
         g0 = G[0].copy()
         np.subtract(g0, G, out=G)           # -(G_k - G_0) <= 0
         np.exp(G, out=G)
         G *= wr
         out[st:st + chunk] = np.log(G.sum(axis=0)) - g0
     return out + (np.log(_GH_W[kmax]) - 0.5 * np.log(np.pi) - a * shift)
+
+
+def error_floor(surrogate: Any, config: PosteriorConfig) -> float:
+    """F of the likelihood (module docstring): the smallest error the surrogate was fitted to with
+    ``config.floor == "best"``, else 0."""
+    if config.floor != "best":
+        return 0.0
+    return max(float(np.min(surrogate.errors_)), 0.0)
 
 
 def _normalize_log(logp: np.ndarray, failed: np.ndarray | None) -> np.ndarray:
@@ -179,7 +220,8 @@ def posterior_from_surrogate(
 ) -> xr.DataArray:
     """P over ``grid`` from a fitted surrogate (module docstring); returns the DataArray "P".
 
-    ``failed``: boolean mask of cells (shape ``n``) whose evaluation failed (P = 0 there);
+    ``failed``: boolean mask of cells (shape ``n``) whose evaluation failed (P = 0 there); in the
+    likelihood mode E is floored at ``error_floor(surrogate, config)`` (attrs["error_floor"]);
     ``noise_var``: sigma^2 for the likelihood mode (required there); ``prediction``: optional
     precomputed (mean, var) of t on ``grid.points``.
     """
@@ -192,13 +234,16 @@ def posterior_from_surrogate(
                 "likelihood posterior needs non-negative errors; use posterior='minimizer' or shift the objective."
             )
         mean, var = prediction if prediction is not None else surrogate.predict(pts)
-        p = _normalize_log(log_likelihood(mean, var, noise_var=noise_var, shift=surrogate.shift_), failed)
+        floor = error_floor(surrogate, config)
+        p = _normalize_log(log_likelihood(mean, var, noise_var=noise_var, shift=surrogate.shift_, floor=floor),
+                           failed)
     else:
         p = _minimizer_probability(surrogate, pts, config=config, failed=failed, seed=seed, prediction=prediction)
     da = grid.to_dataarray(p, name="P")
     da.attrs.update({"mode": config.mode, "long_name": "posterior probability of each cell"})
     if noise_var is not None and config.mode == "likelihood":
         da.attrs["noise_var"] = float(noise_var)
+        da.attrs["error_floor"] = error_floor(surrogate, config)
     return da
 
 

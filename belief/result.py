@@ -16,6 +16,7 @@ import numpy as np
 import xarray as xr
 
 from belief.belief import Belief
+from belief.bounds import AtBound
 from belief.errors import BeliefError
 from belief.posterior import credible_region
 
@@ -64,9 +65,10 @@ class IdentificationResult:
     ``belief``: the :class:`~belief.belief.Belief` (P, decoded θ, verdicts; None with
     ``posterior=None``); ``history``: Dataset of every evaluation in order (see
     :func:`history_dataset`); ``best_theta``: DataArray over ``parameter`` (θ of the smallest
-    observed error); ``best_error``; ``config``: JSON-able options. ``posterior`` (P) and
+    observed error); ``best_error``; ``config``: JSON-able options. ``posterior`` (P),
     ``marginals`` (per parameter: mean, std, lower, upper, map, prior_mean, prior_std, verdict,
-    reason, identified) are read from the belief.
+    reason, identified, at_bound) and ``at_bounds`` (parameters pinned at a bound, belief.bounds)
+    are read from the belief.
     """
 
     belief: Belief | None
@@ -84,6 +86,11 @@ class IdentificationResult:
     def marginals(self) -> xr.Dataset | None:
         """Per-parameter summaries of P with verdicts (Belief.marginals), or None."""
         return None if self.belief is None else self.belief.marginals()
+
+    @property
+    def at_bounds(self) -> tuple[AtBound, ...]:
+        """Parameters pinned at a bound of the box after fitting (Belief.at_bounds; empty without a belief)."""
+        return () if self.belief is None else self.belief.at_bounds
 
     @property
     def n_evaluations(self) -> int:

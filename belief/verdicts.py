@@ -44,6 +44,15 @@ parameter j therefore combines these pieces of evidence:
    that holds fixed a direction trading off with θ_j (μ in S = J²/(2 m² μ), with m searched)
    makes P narrow in θ_j; the full-space ratio is not.
 
+6. **At a bound** (model inadequacy, :mod:`belief.bounds`): the fitted θ (θ′ of rule 5 when the
+   local step moved, else the best evaluation θ̂) within ``bound_tolerance`` x width of a bound of
+   the box, in a parameter the data narrow (the ratio of rules 1 and 5b below ``weak_ratio``) ->
+   not identified: the fit would leave the box, so the value is the bound, not an estimate. A
+   parameter the data do not narrow can sit on the edge by chance (in 15-D about a quarter of
+   uniform points have some coordinate within 1 % of a bound; a clipping decoder such as REMBO
+   puts many cells there) and is not identified by rule 1 already. The pinned parameters are
+   listed in the Belief (``Belief.at_bounds``) and its summary.
+
 Only a parameter that passes all of them is *identified*. The budget rule of thumb for a GP in d
 dimensions, n >= 10 d evaluations (Loeppky, Sacks & Welch 2009), is reported as a warning with the
 numbers when it is not met.
@@ -56,10 +65,11 @@ from typing import Mapping, Sequence
 import numpy as np
 import xarray as xr
 
+from belief.bounds import AT_BOUND_TOLERANCE, AtBound
 from belief.errors import BeliefError
 
-__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "loglik_sd", "verified_mass", "segment_conflicts",
-           "refit_conflicts", "decide", "budget_warning"]
+__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "default_verdicts", "loglik_sd", "verified_mass", "segment_conflicts",
+           "refit_conflicts", "pinned", "decide", "budget_warning"]
 
 VERDICTS = ("identified", "weakly identified", "not identified")
 
@@ -77,8 +87,12 @@ class VerdictConfig:
     refit: bool = True
     refit_nats: float = 3.0
     refit_fraction: float = 0.5
+    bound_tolerance: float = AT_BOUND_TOLERANCE
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.bound_tolerance, (int, float)) and 0 <= self.bound_tolerance < 0.5):
+            raise BeliefError(f"VerdictConfig.bound_tolerance must be a fraction of the box width in [0, 0.5) "
+                              f"(rule 6), got {self.bound_tolerance!r}.")
         if not (np.isfinite(self.refit_nats) and self.refit_nats > 0):
             raise BeliefError(f"VerdictConfig.refit_nats must be a positive number of nats, got {self.refit_nats!r}.")
         if not (np.isfinite(self.refit_fraction) and 0 < self.refit_fraction < 1):
@@ -101,6 +115,33 @@ def reach_reason(reach: float) -> str:
     """Why a parameter the decoder barely varies is not identified (rule 0)."""
     return (f"the decoder varies it over {reach:.0%} of a uniform spread over its box: values outside its image "
             f"were never tried, so P cannot place the truth")
+
+
+def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
+    """Verdicts from P alone, with ratio_j = std_j / prior_std_j of the marginals ``marg``.
+
+    ratio < 0.5 -> identified, ratio < 0.8 -> weakly identified, else not identified (the default
+    :class:`~belief.verdicts.VerdictConfig` thresholds, without its evidence checks). A parameter
+    the decoder does not vary over the cells (prior_std = 0), or over less than ``min_reach`` of its
+    box (``reach``, :mod:`belief.verdicts` rule 0), is not identified.
+    """
+    cfg = VerdictConfig()
+    verdicts, reasons = [], []
+    reach = marg["reach"].values if "reach" in marg else np.ones(marg.sizes["parameter"])
+    for std, prior, spread in zip(marg["std"].values, marg["prior_std"].values, reach):
+        if not prior > 0:
+            verdicts.append(VERDICTS[2])
+            reasons.append("the decoder does not vary it over the cells (prior std 0): P says nothing about it")
+            continue
+        if spread < cfg.min_reach:
+            verdicts.append(VERDICTS[2])
+            reasons.append(reach_reason(float(spread)))
+            continue
+        r = float(std / prior)
+        verdicts.append(VERDICTS[0] if r < cfg.identified_ratio else VERDICTS[1] if r < cfg.weak_ratio else VERDICTS[2])
+        reasons.append(f"std is {r:.0%} of the prior's (std/prior_std = {r:.3g}; from P alone: identified below "
+                       f"{cfg.identified_ratio:g}, weakly identified below {cfg.weak_ratio:g})")
+    return verdicts, reasons
 
 
 def loglik_sd(mean: np.ndarray, var: np.ndarray, *, shift: float | None, noise_var: float) -> np.ndarray:
@@ -174,6 +215,18 @@ def refit_conflicts(marginals: xr.Dataset, theta: Sequence[float], error: float,
     return out
 
 
+def pinned(marginals: xr.Dataset, found: Sequence[AtBound], *, weak_ratio: float,
+           local_ratio: Sequence[float] | None = None) -> tuple[AtBound, ...]:
+    """The entries of ``found`` (belief.bounds.at_bounds of the fitted θ) whose parameter the data
+    narrow (module docstring, rule 6): ratio < ``weak_ratio``, the ratio being the larger of
+    std / prior_std in ``marginals`` and ``local_ratio`` (D,) of rule 5b when given."""
+    names = [str(n) for n in marginals["parameter"].values]
+    local = np.zeros(len(names)) if local_ratio is None else np.asarray(local_ratio, dtype=float)
+    narrow = {n for j, n in enumerate(names)
+              if float(marginals["prior_std"].values[j]) > 0 and _ratio(marginals, j, float(local[j]))[0] < weak_ratio}
+    return tuple(a for a in found if a.name in narrow)
+
+
 def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
     """A message when n_ok < per_dim x dim successful evaluations, else ""."""
     need = per_dim * dim
@@ -212,10 +265,12 @@ def _ratio(marg: xr.Dataset, j: int, local: float) -> tuple[float, str]:
 def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: float,
            conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None,
            local_ratio: Sequence[float] | None = None) -> tuple[list[str], list[str]]:
-    """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 0-5).
+    """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 0-5; rule 6 enters
+    through ``conflicts``).
 
     ``best_theta``: θ of the best evaluation (D,); ``verified``: P's verified mass in [0, 1];
-    ``conflicts``: parameter -> reason, from :func:`segment_conflicts` or :func:`refit_conflicts`;
+    ``conflicts``: parameter -> reason, from :func:`segment_conflicts`, :func:`refit_conflicts` or
+    rule 6 (:meth:`belief.bounds.AtBound.reason` of :func:`pinned`);
     ``local_ratio``: (D,) local posterior std over the box's uniform std (rule 5b), or None.
     """
     cfg = config or VerdictConfig()
