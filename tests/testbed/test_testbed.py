@@ -163,3 +163,15 @@ def test_extra_mass_adds_its_mass():
     assert heavy[0] == pytest.approx(plain[0] + 0.5)
     assert heavy[1] == pytest.approx(0.5 * 0.4 / heavy[0])
     assert plain[0] == pytest.approx(3.0, rel=0.05)          # SUPERball: about 3 kg per rod
+
+
+def test_actuators_keep_tension_under_max_tens():
+    robot = _settled(seconds=0.3)
+    command = robot.rest * 0.5                               # far shorter than any cable can be pulled
+    peak = 0.0
+    for _ in range(500):
+        robot.step(command)
+        peak = max(peak, robot.tensions().max())
+    robot.close()
+    assert peak <= NOMINAL["maxTens"] * 1.02               # one step of travel past the clamp at most
+    assert peak > 0.8 * NOMINAL["maxTens"]                   # and the command did pull hard
