@@ -30,10 +30,12 @@ from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, Sob
 from belief.verdicts import VERDICTS, VerdictConfig
 from belief.journal import Journal, Record
 from belief.posterior import (
+    FLOORS,
     PosteriorConfig,
     credible_mask,
     credible_region,
     entropy,
+    error_floor,
     estimate_noise_var,
     log_likelihood,
     marginals,
@@ -49,7 +51,7 @@ __all__ = [
     "Proposal", "Proposer", "RandomProposer", "SobolDesign", "BOProposer", "VERDICTS", "VerdictConfig",
     "GPSurrogate", "SurrogateConfig",
     "log_h", "log_expected_improvement", "select_cells",
-    "PosteriorConfig", "posterior_from_surrogate", "log_likelihood", "estimate_noise_var",
+    "FLOORS", "PosteriorConfig", "posterior_from_surrogate", "log_likelihood", "error_floor", "estimate_noise_var",
     "credible_mask", "credible_region", "entropy", "marginals",
     "Journal", "Record",
     "identify", "problem_fingerprint", "IdentificationResult", "Carried", "carry_over", "continue_in",

@@ -5,7 +5,9 @@
     1  σ²: given, else the objective's known noise, else the noise rule (belief.noise) on the
        residuals of the best evaluated θ (one extra evaluation of the objective)
     2  P over the cells from the GP fitted to all evaluations (belief.posterior)
-    3  the verified mass of P: Σ P where the GP knows the log-likelihood to 1 nat (belief.verdicts)
+    3  the verified mass of P: Σ P where the GP knows the log-likelihood to 1 nat (belief.verdicts);
+       with an estimated σ², P floors E at the best evaluated error (belief.posterior), so no cell
+       outweighs the best evaluation
     4  one posterior per segment of E (time windows, trajectories) from a GP fitted to that
        segment's errors, with that segment's own σ²; disjoint narrow intervals = conflict
     5  marginals of P and a verdict per parameter (belief.verdicts.decide)
@@ -18,7 +20,10 @@
        rule 6, belief.bounds)
 
 Objectives without ``residuals`` fall back to the "iid" rule; objectives without segments skip
-step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff and the budget warning.
+step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff, the budget warning, E's floor
+(``error_floor``), P of the best evaluated cell (``best_cell_mass``) and, when P cannot be trusted
+(an interval that excludes the best evaluation, little verified mass), why (``trust``,
+belief.verdicts.trust_note; the summary prints it).
 """
 from __future__ import annotations
 
@@ -36,10 +41,12 @@ from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discre
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate, SurrogateConfig
 from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, pinned, refit_conflicts,
-                             segment_conflicts, verified_mass)
+                             segment_conflicts, trust_note, verified_mass)
 from physics.errors import PhysicsError
 
 __all__ = ["NoiseLevel", "noise_level", "assess"]
+
+_KNOWN = ("given", "known by the objective")
 
 
 @dataclass(frozen=True)
@@ -50,6 +57,11 @@ class NoiseLevel:
     segments: tuple[float, ...] = ()
     rule: str = ""
     info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def known(self) -> bool:
+        """σ² was given or declared by the objective, not estimated from the evaluations."""
+        return self.rule in _KNOWN
 
 
 def _residuals(objective: Any, theta: np.ndarray) -> list[np.ndarray] | None:
@@ -73,7 +85,7 @@ def noise_level(objective: Any, config: PosteriorConfig, errors: np.ndarray, par
         return NoiseLevel(None, (), "none (minimizer mode)")
     given = config.noise_var if config.noise_var is not None else getattr(objective, "noise_var", None)
     if given is not None:
-        rule = "given" if config.noise_var is not None else "known by the objective"
+        rule = _KNOWN[0] if config.noise_var is not None else _KNOWN[1]
         return NoiseLevel(float(given), (float(given),) * S, rule)
     K = int(getattr(objective, "n_observations", 1))
     res = _residuals(objective, best_theta) if config.noise_rule == "ess" else None
@@ -100,7 +112,8 @@ def _segment_marginals(records: Sequence[Any], grid: Any, theta_cells: np.ndarra
     for s, name in enumerate(segments):
         model = GPSurrogate(grid.bounds, config=surrogate).fit(Z, parts[:, s])
         nv = noise.segments[s] if noise.segments else None
-        P_s = posterior_from_surrogate(model, grid, config=config, noise_var=nv, failed=failed, seed=seed + s + 1)
+        P_s = posterior_from_surrogate(model, grid, config=config, noise_var=nv, failed=failed, seed=seed + s + 1,
+                                       noise_known=noise.known)
         out[name] = marginals(P_s, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
     return out
 
@@ -167,7 +180,7 @@ def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], mode
     failed[[r.cell for r in records if r.status != "ok"]] = True
     pred = model.predict(grid.points)
     P = posterior_from_surrogate(model, grid, config=config, noise_var=noise.total, failed=failed, seed=seed,
-                                 prediction=pred)
+                                 prediction=pred, noise_known=noise.known)
     p = P.values.ravel()
     theta_cells = decoder.decode(np.asarray(grid.points))
     vmass = 1.0
@@ -187,12 +200,16 @@ def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], mode
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, config=vcfg, local_ratio=ratio,
                                conflicts={**extra, **conflicts, **{a.name: a.reason() for a in at_bound}})
+    best_mass = float(p[best.cell])
+    trust = trust_note(marg, verdicts, best_theta=best.theta, verified=vmass, best_mass=best_mass, config=vcfg,
+                       local_ratio=ratio)
     warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim)
     if warn:
         warnings.warn(warn, BudgetWarning, stacklevel=3)
     attrs = {"mode": config.mode, "level": config.level, "noise_var": noise.total, "noise_rule": noise.rule,
              "noise": noise.info, "segments": list(segments), "verified_mass": vmass, "n_evaluations": len(records),
              "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn, "local_fit": local,
-             "at_bounds": [a.as_dict() for a in at_bound], "bound_tolerance": vcfg.bound_tolerance}
+             "at_bounds": [a.as_dict() for a in at_bound], "bound_tolerance": vcfg.bound_tolerance,
+             "error_floor": P.attrs.get("error_floor"), "best_cell_mass": best_mass, "trust": trust}
     return Belief(P, theta_cells, space, decoder_config=decoder.config(), grid_config=grid.config(),
                   verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level, grid=grid)

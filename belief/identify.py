@@ -204,12 +204,13 @@ def _callback_hook(callback: Callable[[int, xr.DataArray], None] | None, objecti
             return
         ok = np.array([r.error for r in hist if r.status == "ok"])
         nv = pcfg.noise_var or getattr(objective, "noise_var", None)
+        known = nv is not None
         if pcfg.mode == "likelihood" and nv is None:
             nv = iid_noise_var(ok, n_observations=int(getattr(objective, "n_observations", 1)), dim=grid.dim)
         failed = np.zeros(grid.size, dtype=bool)
         failed[[r.cell for r in hist if r.status != "ok"]] = True
         callback(n_before, posterior_from_surrogate(proposal.model, grid, config=pcfg, noise_var=nv, failed=failed,
-                                                    seed=seed, prediction=proposal.prediction))
+                                                    seed=seed, prediction=proposal.prediction, noise_known=known))
 
     return hook
 

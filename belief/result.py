@@ -112,6 +112,8 @@ class IdentificationResult:
         if "error" in local:
             tail += (f"\nlocal fit over all parameters (verdict rule 5): one Gauss-Newton step from the best "
                      f"evaluation gives E {local['error']:.6g} ({local['evaluations']} simulations)")
+        trust = self.belief.attrs.get("trust")          # why P cannot be trusted (belief.verdicts.trust_note)
+        tail += f"\nwarning: {trust}" if trust else ""
         return self.belief.summary(truth=truth) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")
 
     def save(self, path: "str | os.PathLike[str]") -> None:

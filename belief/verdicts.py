@@ -19,7 +19,12 @@ parameter j therefore combines these pieces of evidence:
    The verified mass is Σ P over cells with sd_ℓ <= ``max_loglik_sd`` nats. Below
    ``min_verified_mass``, P rests on the GP's guesses -> at most weakly identified.
 4. **Evaluated support**: the best evaluated θ_j must lie inside the credible interval of θ_j,
-   otherwise P contradicts the evaluations -> at most weakly identified.
+   otherwise P contradicts the evaluations -> not identified, whatever the narrowing (a weakly
+   identified interval that excludes the best evaluation is as wrong as an identified one). The
+   likelihood's evaluated floor (:mod:`belief.posterior`) keeps every cell at or below the best
+   evaluation's weight, so this fires only when P spreads over many cells nobody evaluated on one
+   side of the best (the best cell then holds less than (1 − level)/2 of P: a cell holding more
+   lies inside every marginal interval).
 
 0. **Reach** (checked first): reach_j = prior_std_j / (width_j / √12), the spread of θ_j over the
    decoded cells relative to a uniform spread over its box. A decoder that varies θ_j over only a
@@ -69,7 +74,7 @@ from belief.bounds import AT_BOUND_TOLERANCE, AtBound
 from belief.errors import BeliefError
 
 __all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "default_verdicts", "loglik_sd", "verified_mass", "segment_conflicts",
-           "refit_conflicts", "pinned", "decide", "budget_warning"]
+           "refit_conflicts", "pinned", "unsupported", "trust_note", "decide", "budget_warning"]
 
 VERDICTS = ("identified", "weakly identified", "not identified")
 
@@ -238,17 +243,28 @@ def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
             f"embedding for sharper answers.")
 
 
-def _sharp_verdict(j: int, marg: xr.Dataset, best: np.ndarray, vmass: float, cfg: VerdictConfig,
-                   ratio: float) -> tuple[str, str]:
-    lo, hi = float(marg["lower"].values[j]), float(marg["upper"].values[j])
+def unsupported(marginals: xr.Dataset, best_theta: Sequence[float]) -> dict[str, str]:
+    """Parameters whose credible interval excludes the best evaluated θ (module docstring, rule 4).
+
+    ``marginals``: Dataset with ``lower``, ``upper`` over ``parameter``; ``best_theta``: θ̂ (D,).
+    Returns parameter -> reason (only the contradicted ones; a relative tolerance of 1e-9).
+    """
+    best = np.asarray(best_theta, dtype=float)
+    out: dict[str, str] = {}
+    for j, name in enumerate(str(n) for n in marginals["parameter"].values):
+        lo, hi = float(marginals["lower"].values[j]), float(marginals["upper"].values[j])
+        tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
+        if not (lo - tol <= best[j] <= hi + tol):
+            out[name] = (f"P contradicts its evaluations: the best evaluated value {best[j]:.4g} lies outside the "
+                         f"interval [{lo:.4g}, {hi:.4g}], so P's mass rests on cells nobody evaluated")
+    return out
+
+
+def _sharp_verdict(vmass: float, cfg: VerdictConfig, ratio: float) -> tuple[str, str]:
     if vmass < cfg.min_verified_mass:
         return "weakly identified", (f"std is {ratio:.0%} of the prior's, but only {vmass:.0%} of P's mass lies on "
                                      f"cells whose likelihood the GP knows to {cfg.max_loglik_sd:g} nat: the "
                                      "interval rests on cells nobody evaluated")
-    tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
-    if not (lo - tol <= best[j] <= hi + tol):
-        return "weakly identified", (f"std is {ratio:.0%} of the prior's, but the best evaluated value "
-                                     f"{best[j]:.4g} lies outside the interval [{lo:.4g}, {hi:.4g}]")
     return "identified", (f"std is {ratio:.0%} of the prior's; {vmass:.0%} of P's mass verified by the GP; "
                           "the best evaluated value lies inside the interval")
 
@@ -262,11 +278,39 @@ def _ratio(marg: xr.Dataset, j: int, local: float) -> tuple[float, str]:
                    f"{local:.0%} of the box's std: the decoder holds fixed what trades off with it)")
 
 
+def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: Sequence[float], verified: float,
+               best_mass: float, config: VerdictConfig | None = None,
+               local_ratio: Sequence[float] | None = None) -> str:
+    """Why P cannot be trusted, for the summary, or "" when it can (module docstring, rules 3-4).
+
+    Said when some parameter the data narrow (ratio < ``weak_ratio``, rules 1 and 5b) has an interval
+    that excludes the best evaluated θ (rule 4), or when P's ``verified`` mass is below
+    ``min_verified_mass`` (rule 3) while some parameter is still (weakly) identified.
+    ``verdicts``: one per parameter (from :func:`decide`); ``best_mass``: P of the best evaluated cell.
+    """
+    cfg = config or VerdictConfig()
+    names = [str(n) for n in marginals["parameter"].values]
+    local = np.zeros(len(names)) if local_ratio is None else np.asarray(local_ratio, dtype=float)
+    narrow = [n for j, n in enumerate(names) if float(marginals["prior_std"].values[j]) > 0
+              and _ratio(marginals, j, float(local[j]))[0] < cfg.weak_ratio]
+    bad = [n for n in narrow if n in unsupported(marginals, best_theta)]
+    kept = [n for n, v in zip(names, verdicts) if v != VERDICTS[2]]
+    where = (f"{verified:.0%} of P's mass lies on cells whose likelihood the GP knows to {cfg.max_loglik_sd:g} nat "
+             f"and {best_mass:.1%} on the best evaluation")
+    if bad:
+        return (f"P contradicts its evaluations: the interval of {', '.join(bad)} excludes the best evaluated value "
+                f"({where}); P rests on cells nobody evaluated, so these are not identified. Raise the budget.")
+    if kept and verified < cfg.min_verified_mass:
+        return (f"P rests partly on the GP's guesses: only {where}; the intervals of {', '.join(kept)} hold the "
+                "best evaluation but are at most weakly identified.")
+    return ""
+
+
 def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: float,
            conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None,
            local_ratio: Sequence[float] | None = None) -> tuple[list[str], list[str]]:
     """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 0-5; rule 6 enters
-    through ``conflicts``).
+    through ``conflicts``; rule 4, :func:`unsupported`, applies to every parameter the data narrow).
 
     ``best_theta``: θ of the best evaluation (D,); ``verified``: P's verified mass in [0, 1];
     ``conflicts``: parameter -> reason, from :func:`segment_conflicts`, :func:`refit_conflicts` or
@@ -279,6 +323,7 @@ def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: floa
     if best.shape != (len(names),):
         raise BeliefError(f"best_theta must have shape ({len(names)},), got {best.shape}.")
     conflicts = conflicts or {}
+    contradicted = unsupported(marginals, best)
     local = np.zeros(len(names)) if local_ratio is None else np.asarray(local_ratio, dtype=float)
     verdicts, reasons = [], []
     reach = marginals["reach"].values if "reach" in marginals else np.ones(len(names))
@@ -290,10 +335,12 @@ def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: floa
             v, why = "not identified", conflicts[name]
         elif ratio >= cfg.weak_ratio:
             v, why = "not identified", f"std is {ratio:.0%} of the prior's: the data barely narrow it"
+        elif name in contradicted:
+            v, why = "not identified", f"{contradicted[name]} (std is {ratio:.0%} of the prior's)"
         elif ratio >= cfg.identified_ratio:
             v, why = "weakly identified", f"std is {ratio:.0%} of the prior's"
         else:
-            v, why = _sharp_verdict(j, marginals, best, verified, cfg, ratio)
+            v, why = _sharp_verdict(verified, cfg, ratio)
         verdicts.append(v)
         reasons.append(why + note)
     return verdicts, reasons

@@ -21,7 +21,8 @@ def _space(D: int = 2) -> ParameterSpace:
 
 def test_gp_lower_tail_on_unevaluated_cells_is_not_identified() -> None:
     """The failure of the issue: evaluations near x0 = 0.2, a sharp σ², and P piled on x0 > 0.5
-    (cells nobody evaluated, where the GP's lower tail wins). The old flag says identified."""
+    (cells nobody evaluated, where the GP's lower tail wins). The old flag says identified; the
+    unfloored likelihood (floor="zero") contradicts the evaluations, and the verdict says so."""
     space = _space()
     dec = Identity(space)
     grid = Grid.for_decoder(dec, points_per_dim=41)
@@ -31,15 +32,21 @@ def test_gp_lower_tail_on_unevaluated_cells_is_not_identified() -> None:
     gp = GPSurrogate(grid.bounds).fit(Z, E)
     pred = gp.predict(grid.points)
     noise_var = 1e-4
-    P = posterior_from_surrogate(gp, grid, config=PosteriorConfig(), noise_var=noise_var, prediction=pred)
+    best = Z[np.argmin(E)]
+    P = posterior_from_surrogate(gp, grid, config=PosteriorConfig(floor="zero"), noise_var=noise_var, prediction=pred)
     marg = marginals(P, dec.decode(grid.points), space)
     x0 = marg.sel(parameter="x0")
     assert bool(x0["identified"]) and float(x0["lower"]) > 0.4      # the old rule: sharp, and wrong
     vmass = verified_mass(P.values.ravel(), loglik_sd(*pred, shift=gp.shift_, noise_var=noise_var), max_sd=1.0)
     assert vmass < 0.01
-    verdicts, reasons = decide(marg, best_theta=Z[np.argmin(E)], verified=vmass)
-    assert verdicts[0] != "identified"
-    assert "nobody evaluated" in reasons[0]
+    verdicts, reasons = decide(marg, best_theta=best, verified=vmass)
+    assert verdicts[0] == "not identified"
+    assert "contradicts its evaluations" in reasons[0] and "nobody evaluated" in reasons[0]
+    # the evaluated floor: no cell outweighs the best evaluation, and P's interval holds it
+    P = posterior_from_surrogate(gp, grid, config=PosteriorConfig(), noise_var=noise_var, prediction=pred)
+    marg = marginals(P, dec.decode(grid.points), space)
+    assert float(marg["lower"][0]) <= best[0] <= float(marg["upper"][0])
+    assert decide(marg, best_theta=best, verified=vmass)[0][0] == "not identified"   # 10 evaluations: too few
 
 
 def _marg(mean, std, lower, upper, prior_std=0.29) -> xr.Dataset:
@@ -55,8 +62,10 @@ def test_decide_follows_the_four_rules() -> None:
     m = _marg(mean=[0.5, 0.5, 0.5, 0.5], std=[0.01, 0.2, 0.28, 0.01],
               lower=[0.48, 0.2, 0.05, 0.48], upper=[0.52, 0.8, 0.95, 0.52])
     v, why = decide(m, best_theta=[0.5, 0.5, 0.5, 0.9], verified=0.9)
-    assert v == ["identified", "weakly identified", "not identified", "weakly identified"]
-    assert "outside the interval" in why[3]
+    assert v == ["identified", "weakly identified", "not identified", "not identified"]
+    assert "outside the interval" in why[3] and "contradicts its evaluations" in why[3]
+    v, why = decide(m, best_theta=[0.5, 0.9, 0.5, 0.5], verified=0.9)     # a weak interval must hold it too
+    assert v[:2] == ["identified", "not identified"] and "outside the interval" in why[1]
     v, why = decide(m, best_theta=[0.5, 0.5, 0.5, 0.5], verified=0.2)
     assert v[0] == "weakly identified" and "20%" in why[0]
     v, why = decide(m, best_theta=[0.5, 0.5, 0.5, 0.5], verified=0.9, conflicts={"x0": "moves"})
