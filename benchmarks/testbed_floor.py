@@ -10,7 +10,8 @@ Rows (noise-free observations, 3 s flops at 100 Hz, the three flops and the held
 Columns: one-step RMS residual per coordinate [mm] (E with horizon 1, squared loss, over the
 residual count), and the open-loop drift [mm] (mean node distance between one free rollout from
 the first sample and the observation) at 0.2, 0.3, 0.5 and 1.0 s after the start of the recording
-(the flops' commands start at 0.2 s). The last line gives the medians' ratios.
+(the flops' commands start at 0.2 s), and the mean height of the three lowest nodes in the
+first sample, at rest [mm]. The last line gives the medians' ratios.
 
     .venv/bin/python benchmarks/testbed_floor.py --seeds 3
 """
@@ -29,13 +30,15 @@ TIMES = (0.2, 0.3, 0.5, 1.0)
 
 
 def floor_row(ds: xr.Dataset, theta: np.ndarray) -> tuple[float, ...]:
-    """(one-step RMS [mm], drift at each of TIMES [mm]) of DART at ``theta`` on one trajectory."""
+    """(one-step RMS [mm], drift at each of TIMES [mm], resting height of the lowest three nodes
+    [mm]) of DART at ``theta`` on one trajectory."""
     one_step = TrajectoryError(ds, loss="squared", n_workers=0)
     rms = np.sqrt(one_step(theta) / one_step.n_observations) * 1e3
     rollout = TrajectoryError(ds, horizon="rollout", n_workers=0).predictions(theta)[0].values
     distance = np.linalg.norm(rollout - ds["nodes"].values, axis=2).mean(axis=1)
     t = ds["time"].values - ds["time"].values[0]
-    return (float(rms), *(float(distance[np.argmin(np.abs(t - x))]) * 1e3 for x in TIMES))
+    rest = float(np.sort(ds["nodes"].values[0, :, 2])[:3].mean()) * 1e3
+    return (float(rms), *(float(distance[np.argmin(np.abs(t - x))]) * 1e3 for x in TIMES), rest)
 
 
 def main() -> None:
@@ -51,7 +54,7 @@ def main() -> None:
         ds = simulate(controller=FlopController(heading=heading), duration=3.0, options=ModelOptions(dt=5e-4),
                       record_velocities=False)
         rows["dart dt/2"].append(floor_row(ds, nominal))
-    print(f"{'source':10s} {'n':>3s} {'one-step RMS mm':>16s} " + " ".join(f"{f'drift {t:g}s mm':>14s}" for t in TIMES))
+    print(f"{'source':10s} {'n':>3s} {'one-step RMS mm':>16s} " + " ".join(f"{f'drift {t:g}s mm':>14s}" for t in TIMES) + f" {'rest height mm':>15s}")
     medians = {}
     for name, values in rows.items():
         arr = np.array(values)

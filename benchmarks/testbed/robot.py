@@ -173,7 +173,7 @@ class TestbedRobot:
         l_end = 0.5 * (th["rod_length"] - l_mp)
         z_end = 0.5 * (l_mp + l_end)
         anchors = self._anchor_points(nodes, th["radius"])
-        self.bodies, self.com_offset, self.rot0, self.centre0 = [], np.zeros(6), [], []
+        self.bodies, self.com_offset, self.masses = [], np.zeros(6), np.zeros(6)
         self.anchor_local = np.empty((len(CABLE_ENDS), 2, 3))
         self.half = 0.5 * th["rod_length"]
         for i, (a, b) in enumerate(ROD_ENDS):
@@ -191,7 +191,7 @@ class TestbedRobot:
                               linearDamping=0.0, angularDamping=0.0, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
                               physicsClientId=cid)
             self.bodies.append(body)
-            self.com_offset[i] = zc
+            self.com_offset[i], self.masses[i] = zc, mass
             for j, ends in enumerate(CABLE_ENDS):
                 for side in (0, 1):
                     if ends[side] // 2 == i:
@@ -216,16 +216,18 @@ class TestbedRobot:
         length = np.linalg.norm(d, axis=1)
         return length, d / length[:, None], anchors
 
-    def nodes(self) -> np.ndarray:
-        """Rod endpoints (12 x 3) [m] in the world frame: rod centre ∓ half a rod along its axis."""
-        rot, centre, _ = self._poses()
+    def nodes(self, poses=None) -> np.ndarray:
+        """Rod endpoints (12 x 3) [m] in the world frame: rod centre ∓ half a rod along its axis
+        (``poses``: those of :meth:`_poses` if already read this step)."""
+        rot, centre, _ = poses or self._poses()
         axis = rot[:, :, 2]
         return np.stack([centre - self.half * axis, centre + self.half * axis], axis=1).reshape(12, 3)
 
-    def node_velocities(self) -> np.ndarray:
+    def node_velocities(self, poses=None) -> np.ndarray:
         """Velocities (12 x 3) [m/s] of the rod endpoints."""
-        nodes = self.nodes().reshape(6, 2, 3)
-        _, _, com = self._poses()
+        poses = poses or self._poses()
+        nodes = self.nodes(poses).reshape(6, 2, 3)
+        com = poses[2]
         out = np.empty((6, 2, 3))
         for i, body in enumerate(self.bodies):
             v, w = pb.getBaseVelocity(body, physicsClientId=self.client)
@@ -293,19 +295,20 @@ class TestbedRobot:
         net, torque = np.zeros((6, 3)), np.zeros((6, 3))
         np.add.at(net, rods, per_anchor)
         np.add.at(torque, rods, np.cross(anchors - com[rods], per_anchor))
-        self._node_forces(com, net, torque)
+        self._node_forces(poses, net, torque)
         for i, body in enumerate(self.bodies):
             pb.applyExternalForce(body, -1, net[i].tolist(), com[i].tolist(), pb.WORLD_FRAME, physicsClientId=self.client)
             pb.applyExternalTorque(body, -1, torque[i].tolist(), pb.WORLD_FRAME, physicsClientId=self.client)
         pb.stepSimulation(physicsClientId=self.client)
         self.time += self.dt
 
-    def _node_forces(self, com: np.ndarray, net: np.ndarray, torque: np.ndarray) -> None:
+    def _node_forces(self, poses, net: np.ndarray, torque: np.ndarray) -> None:
         """Add air drag and ground viscosity, forces at the rod ends, to the rods' net wrenches."""
         eff = self.effects
         if eff.drag == 0 and eff.ground_viscosity == 0:
             return
-        nodes, vel = self.nodes(), self.node_velocities()
+        com = poses[2]
+        nodes, vel = self.nodes(poses), self.node_velocities(poses)
         force = -eff.drag * vel
         if eff.ground_viscosity > 0:
             n = eff.ground_normal()
@@ -325,5 +328,4 @@ class TestbedRobot:
     def com(self) -> np.ndarray:
         """Centre of mass of the robot (3,) [m]."""
         _, _, com = self._poses()
-        masses = np.array([rod_inertia(self.theta, self.effects, i)[0] for i in range(6)])
-        return masses @ com / masses.sum()
+        return self.masses @ com / self.masses.sum()
