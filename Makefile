@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install demo test bench clean
+.PHONY: install demo test bench pretrained clean
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -24,8 +24,7 @@ install: $(STAMP)
 DEMO_THETA := rod_length=1.70 pretension=140 damping=210
 demo: $(STAMP)
 	$(BIN)/tensegrid simulate --out out/demo --theta $(DEMO_THETA) --noise 0.001 --seed 1
-	$(BIN)/tensegrid identify out/demo/trajectory.nc --decoder identity --search bo --candidates 4096 --budget 40 \
-		--out out/demo/identify
+	$(BIN)/tensegrid identify out/demo/trajectory.nc --budget 60 --out out/demo/identify
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=20
@@ -33,6 +32,11 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/physics_speed.py
 	$(BIN)/python benchmarks/parameter_effects.py
+
+# The latent decoder shipped for the T6's default box (embeddings/data/t6-ae-cf-5.json): the ae-cf-5
+# of benchmarks/paper.py, 1,200 simulated trajectories (about an hour on 2 cores; cached).
+pretrained: $(STAMP)
+	$(BIN)/python benchmarks/paper.py --write-pretrained
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

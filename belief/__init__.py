@@ -21,8 +21,10 @@ from belief.errors import (
 from belief.belief import Belief
 from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
 from belief.errors import BudgetWarning
-from belief.grid import Grid, SobolCandidates, candidates_from_config
-from belief.identify import identify, problem_fingerprint
+from belief.grid import CandidateSet, Grid, SobolCandidates, candidates_from_config
+from belief.identify import identify
+from belief.presets import DEFAULT_PRESET, PRESETS, Preset, PresetWarning, run_preset
+from belief.search import problem_fingerprint, search
 from belief.handoff import Carried, carry_over, continue_in
 from belief.least_squares import LocalStep, StepConfig, gauss_newton_step
 from belief.noise import NOISE_RULES, EffectiveSize, effective_size, noise_var_from_residuals, segment_discrepancy
@@ -42,11 +44,12 @@ from belief.posterior import (
     posterior_from_surrogate,
 )
 from belief.result import IdentificationResult
+from belief.sampling import SamplingBelief
 from belief.surrogate import GPSurrogate, SurrogateConfig
 
 __all__ = [
     "BeliefError", "BudgetError", "GridError", "JournalError", "ObjectiveError", "SurrogateError",
-    "BudgetWarning", "Belief", "Grid", "SobolCandidates", "candidates_from_config",
+    "BudgetWarning", "Belief", "SamplingBelief", "CandidateSet", "Grid", "SobolCandidates", "candidates_from_config",
     "NOISE_RULES", "EffectiveSize", "effective_size", "noise_var_from_residuals", "segment_discrepancy",
     "Proposal", "Proposer", "RandomProposer", "SobolDesign", "BOProposer", "VERDICTS", "VerdictConfig",
     "GPSurrogate", "SurrogateConfig",
@@ -54,6 +57,6 @@ __all__ = [
     "FLOORS", "PosteriorConfig", "posterior_from_surrogate", "log_likelihood", "error_floor", "estimate_noise_var",
     "credible_mask", "credible_region", "entropy", "marginals",
     "Journal", "Record",
-    "identify", "problem_fingerprint", "IdentificationResult", "Carried", "carry_over", "continue_in",
+    "identify", "search", "problem_fingerprint", "DEFAULT_PRESET", "PRESETS", "Preset", "PresetWarning", "run_preset", "IdentificationResult", "Carried", "carry_over", "continue_in",
     "LocalStep", "StepConfig", "gauss_newton_step", "AT_BOUND_TOLERANCE", "AtBound", "at_bounds",
 ]

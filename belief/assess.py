@@ -19,8 +19,9 @@
        a bound of the box are not identified and listed in attrs["at_bounds"] (belief.verdicts
        rule 6, belief.bounds)
 
-Objectives without ``residuals`` fall back to the "iid" rule; objectives without segments skip
-step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff, the budget warning, E's floor
+Objectives without residuals (``residuals`` raises :class:`~physics.errors.NoResidualsError`, as
+a wrapped plain function does) fall back to the "iid" rule and skip step 6; objectives with one
+segment skip step 4. Both are recorded in the Belief's attrs, as are σ², K, K_eff, the budget warning, E's floor
 (``error_floor``), P of the best evaluated cell (``best_cell_mass``) and, when P cannot be trusted
 (an interval that excludes the best evaluation, little verified mass), why (``trust``,
 belief.verdicts.trust_note; the summary prints it).
@@ -32,17 +33,23 @@ from dataclasses import dataclass, field
 from typing import Any, Sequence
 
 import numpy as np
+import xarray as xr
 
 from belief.belief import Belief
 from belief.bounds import AtBound, at_bounds
 from belief.errors import BeliefError, BudgetWarning
+from belief.grid import CandidateSet
+from belief.journal import Record
 from belief.least_squares import gauss_newton_step
 from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate, SurrogateConfig
 from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, pinned, refit_conflicts,
                              segment_conflicts, trust_note, verified_mass)
-from physics.errors import PhysicsError
+from embeddings.base import Decoder
+from physics.errors import NoResidualsError, PhysicsError
+from physics.objective import Objective
+from physics.parameters import ParameterSpace
 
 __all__ = ["NoiseLevel", "noise_level", "assess"]
 
@@ -64,17 +71,15 @@ class NoiseLevel:
         return self.rule in _KNOWN
 
 
-def _residuals(objective: Any, theta: np.ndarray) -> list[np.ndarray] | None:
-    fn = getattr(objective, "residuals", None)
-    if not callable(fn):
-        return None
+def _residuals(objective: Objective, theta: np.ndarray) -> list[np.ndarray] | None:
+    """The residuals at θ, or None when the objective has none or the simulation diverged."""
     try:
-        return [np.asarray(r, dtype=float) for r in fn(theta)]
-    except PhysicsError:
+        return [np.asarray(r, dtype=float) for r in objective.residuals(theta)]
+    except (NoResidualsError, PhysicsError):
         return None
 
 
-def noise_level(objective: Any, config: PosteriorConfig, errors: np.ndarray, parts: np.ndarray,
+def noise_level(objective: Objective, config: PosteriorConfig, errors: np.ndarray, parts: np.ndarray,
                 best_theta: np.ndarray, *, dim: int) -> NoiseLevel:
     """σ² of E and of each of its S segments (step 1 of the module docstring).
 
@@ -83,11 +88,11 @@ def noise_level(objective: Any, config: PosteriorConfig, errors: np.ndarray, par
     S = parts.shape[1]
     if config.mode != "likelihood":
         return NoiseLevel(None, (), "none (minimizer mode)")
-    given = config.noise_var if config.noise_var is not None else getattr(objective, "noise_var", None)
+    given = config.noise_var if config.noise_var is not None else objective.noise_var
     if given is not None:
         rule = _KNOWN[0] if config.noise_var is not None else _KNOWN[1]
         return NoiseLevel(float(given), (float(given),) * S, rule)
-    K = int(getattr(objective, "n_observations", 1))
+    K = int(objective.n_observations)
     res = _residuals(objective, best_theta) if config.noise_rule == "ess" else None
     if res is None or len(res) != S:
         why = "iid" if config.noise_rule == "iid" else "iid (the objective gives no residuals per segment)"
@@ -103,9 +108,10 @@ def noise_level(objective: Any, config: PosteriorConfig, errors: np.ndarray, par
                                           "discrepancy": delta, "segment_discrepancy": d_seg})
 
 
-def _segment_marginals(records: Sequence[Any], grid: Any, theta_cells: np.ndarray, space: Any, segments: Sequence[str],
+def _segment_marginals(records: Sequence[Record], grid: CandidateSet, theta_cells: np.ndarray, space: ParameterSpace,
+                       segments: Sequence[str],
                        parts: np.ndarray, noise: NoiseLevel, failed: np.ndarray, *, surrogate: SurrogateConfig,
-                       config: PosteriorConfig, seed: int) -> dict[str, Any]:
+                       config: PosteriorConfig, seed: int) -> dict[str, xr.Dataset]:
     """Marginals of P_s per segment s (step 4), from a GP on that segment's errors (``parts`` n x S)."""
     Z = np.array([r.z for r in records], dtype=float)
     out = {}
@@ -118,7 +124,7 @@ def _segment_marginals(records: Sequence[Any], grid: Any, theta_cells: np.ndarra
     return out
 
 
-def _local_fit(objective: Any, best_theta: np.ndarray, marg: Any, noise: NoiseLevel,
+def _local_fit(objective: Objective, best_theta: np.ndarray, marg: xr.Dataset, noise: NoiseLevel,
                cfg: VerdictConfig) -> tuple[dict[str, str], np.ndarray | None, dict[str, Any]]:
     """(conflicts, local ratio (D,) or None, info) of rule 5 (belief.verdicts) from one Gauss-Newton
     step of all parameters from the best evaluated θ.
@@ -126,10 +132,10 @@ def _local_fit(objective: Any, best_theta: np.ndarray, marg: Any, noise: NoiseLe
     ``info`` goes to the Belief's attrs["local_fit"]: θ′, E(θ′), E(θ̂), evaluations and the local
     std, or why the step was not taken (a diverged simulation is reported there, not hidden).
     """
-    if not (hasattr(objective, "residuals_batch") and getattr(objective, "segments", None)):
-        return {}, None, {"skipped": "the objective gives no residuals"}
     try:
         step = gauss_newton_step(objective, np.asarray(best_theta, dtype=float))
+    except NoResidualsError:
+        return {}, None, {"skipped": "the objective gives no residuals"}
     except (BeliefError, PhysicsError) as exc:
         return {}, None, {"skipped": str(exc)}
     info: dict[str, Any] = {"theta": [float(v) for v in step.theta], "error": step.error,
@@ -143,8 +149,8 @@ def _local_fit(objective: Any, best_theta: np.ndarray, marg: Any, noise: NoiseLe
                            nats=cfg.refit_nats, fraction=cfg.refit_fraction), ratio, info
 
 
-def _pinned(space: Any, best_theta: Sequence[float], local: dict[str, Any], marg: Any, cfg: VerdictConfig,
-            ratio: np.ndarray | None) -> tuple[AtBound, ...]:
+def _pinned(space: ParameterSpace, best_theta: Sequence[float], local: dict[str, Any], marg: xr.Dataset,
+            cfg: VerdictConfig, ratio: np.ndarray | None) -> tuple[AtBound, ...]:
     """Rule 6 (belief.verdicts): parameters the data narrow at a bound of the fitted θ, which is the
     local fit's θ′ when the step moved (its best point), else the best evaluated θ."""
     best = np.asarray(best_theta, dtype=float)
@@ -155,7 +161,7 @@ def _pinned(space: Any, best_theta: Sequence[float], local: dict[str, Any], marg
     return pinned(marg, found, weak_ratio=cfg.weak_ratio, local_ratio=ratio)
 
 
-def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], model: GPSurrogate, *,
+def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: Sequence[Record], model: GPSurrogate, *,
            config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
            verdict_config: VerdictConfig | None = None) -> Belief:
     """The Belief of an identification run (module docstring).
@@ -170,7 +176,7 @@ def assess(objective: Any, decoder: Any, grid: Any, records: Sequence[Any], mode
     space = decoder.space
     errors = np.array([r.error for r in ok])
     best = ok[int(np.argmin(errors))]
-    segments = tuple(getattr(objective, "segments", ()) or ())
+    segments = tuple(objective.segments)
     parts = np.array([r.parts for r in ok], dtype=float) if segments and all(len(r.parts) == len(segments) for r in ok) \
         else errors[:, None]
     if parts.shape[1] != len(segments):

@@ -10,7 +10,7 @@ the box is too narrow. In the unit box u = (θ - lower) / (upper - lower) (physi
 with ``tolerance`` a fraction of the box width (:data:`AT_BOUND_TOLERANCE`, 1 %). :func:`at_bounds`
 is this test alone; who calls it decides which fitted θ counts and which parameters the data see:
 :mod:`belief.verdicts` rule 6 in identify (parameters P narrows, at the local fit or the best
-evaluation), :mod:`belief.diagnose` (parameters the re-tuning moved to a bound, or identify had
+evaluation), :mod:`criticism.diagnose` (parameters the re-tuning moved to a bound, or identify had
 pinned there). Every entry is an :class:`AtBound`; :func:`inadequacy_text` is the block the
 summaries print.
 """

@@ -1,26 +1,29 @@
-"""``tensegrid identify``: the command-line layer over :func:`belief.identify`.
+"""``tensegrid identify``: the command-line layer over :func:`belief.presets.run_preset`.
 
 ::
 
-    tensegrid identify DATA.nc [MORE.nc ...] --decoder {identity,rembo,vae,ae-dyn} --search {bo,random} --budget N --out DIR
-    tensegrid identify --toy push --search bo --budget 30 --out DIR
+    tensegrid identify DATA.nc [MORE.nc ...] [--preset handoff-gn] --budget N --out DIR
+    tensegrid identify DATA.nc --preset latent --decoder ae-dyn --decoder-file ae.json --budget N --out DIR
+    tensegrid identify --toy push --preset bo --budget 30 --out DIR
 
-The decoder maps the searched box to θ, the search chooses where to evaluate. ``--decoder
-identity`` searches the full space (Sobol candidates; a regular grid when D <= 4), ``rembo`` a
-regular grid over a REMBO embedding of dimension ``--dim``, and a trained decoder (``vae``,
-``ae-dyn``, ``active``: ``--decoder-file FILE`` written by ``tensegrid train-embedding`` or
-``decoder.save``) a regular grid over its latent box. ``--search bo`` is Bayesian optimization, ``random`` random search over the same
-cells. Several data files make one objective:
-E(θ) sums the one-step errors of all trajectories, each split into ``--windows`` segments.
+``--preset`` names the recipe (belief.presets): ``handoff-gn`` (default, the best measured) spends
+``--latent`` evaluations of BO in a learned 5-D latent grid, continues BO in the full space over
+``--candidates`` Sobol points with them as its initial design, and finishes with one
+Gauss-Newton step (D + 4 evaluations, counted in ``--budget``); ``handoff`` stops before the
+step; ``bo-gn``/``bo`` search the full space only, ``random`` is random search there, and
+``latent`` searches only the latent grid. The latent decoder is the one shipped for the T6's
+default box, or ``--decoder rembo`` (a random embedding of dimension ``--dim``) or a trained
+decoder (``vae``, ``ae-dyn``, ``active``: ``--decoder-file FILE`` written by ``tensegrid
+train-embedding`` or ``decoder.save``). Several data files make one objective: E(θ) sums the
+one-step errors of all trajectories, each split into ``--windows`` segments.
+
 Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` and
 ``marginals.csv``, ``history.csv``, ``error_vs_evaluations.png``, ``posterior_marginals.png``
 (and ``posterior_2d.png`` for 2-D grids, ``observed_vs_predicted.png`` with rollouts at the
 nominal, best and posterior-mean θ of the first trajectory for trajectory data), and journals to
-``DIR/journal.sqlite`` so an interrupted run resumes when re-run. When the data files carry the
-θ that generated them (simulated data do), the summary shows it next to P's intervals.
-``--handoff N`` spends N evaluations in the decoder's grid (journal ``DIR/journal-latent.sqlite``),
-then continues BO in the full space with them as its initial design (belief.handoff); P is then
-over the full-space candidates.
+``DIR/journal.sqlite`` (the latent stage to ``DIR/journal-latent.sqlite``) so an interrupted run
+resumes when re-run. When the data files carry the θ that generated them (simulated data do),
+the summary shows it next to P's intervals.
 """
 from __future__ import annotations
 
@@ -28,6 +31,8 @@ import argparse
 import os
 import sys
 from typing import Any
+
+from belief.presets import DEFAULT_PRESET, PRESETS
 
 __all__ = ["register_identify", "run_identify"]
 
@@ -41,22 +46,23 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("data", nargs="*", default=[],
                    help="observed trajectories (netCDF, docs/data-format.md); several files make one error E(θ)")
     p.add_argument("--toy", choices=["push"], help="use the 1-D push toy instead of data (no physics engine)")
-    p.add_argument("--decoder", choices=["identity", "rembo", "vae", "ae-dyn", "active"], default="identity",
-                   help="map from the searched box to θ (default identity: the full space)")
+    p.add_argument("--preset", choices=list(PRESETS), default=DEFAULT_PRESET,
+                   help=f"identification recipe (belief.presets; default {DEFAULT_PRESET}, the best measured)")
+    p.add_argument("--decoder", choices=["rembo", "vae", "ae-dyn", "active"], default=None,
+                   help="latent decoder of the presets with a latent stage (default: the one shipped for the T6's "
+                        "default box)")
     p.add_argument("--decoder-file", default=None,
                    help="a decoder file: `tensegrid train-embedding` writes vae and ae-dyn, "
                         "ActiveSubspace.save writes active (needed by those three)")
-    p.add_argument("--search", choices=["bo", "random"], default="bo", help="how cells are chosen (default bo)")
-    p.add_argument("--handoff", type=int, default=None, metavar="N",
-                   help="after N evaluations in the decoder's latent grid, continue BO in the full space with "
-                        "them as its initial design, up to --budget (belief.handoff)")
+    p.add_argument("--latent", type=int, default=None, metavar="N",
+                   help="evaluations of the latent stage of the handoff presets (default 15)")
     p.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
     p.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--dim", type=int, default=5, help="REMBO latent dimension (default 5, capped at D)")
+    p.add_argument("--dim", type=int, default=5, help="--decoder rembo: latent dimension (default 5, capped at D)")
     p.add_argument("--points-per-dim", type=int, default=None,
-                   help="grid nodes per latent axis (default 11; 1001 for a 1-D latent)")
-    p.add_argument("--candidates", type=int, default=20000, help="Sobol candidates for full-space methods, D > 4")
+                   help="grid nodes per latent axis, and per axis of a full space of D <= 4 (default 11)")
+    p.add_argument("--candidates", type=int, default=4096, help="Sobol candidates of the full-space search, D > 4")
     p.add_argument("--q", type=int, default=1, help="evaluations per batch (parallel)")
     p.add_argument("--workers", type=int, default=1,
                    help="parallel evaluations of a batch (T6: dask worker processes; 1 = serial)")
@@ -136,60 +142,69 @@ def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
     return objective, _data_truth(datasets, objective.space), datasets
 
 
-def _search(args: argparse.Namespace, space: Any) -> tuple[Any, Any]:
-    """(decoder, grid): a regular grid over the decoder's box, or Sobol candidates for the identity when D > 4."""
-    from belief.grid import Grid, SobolCandidates
-    from embeddings import REMBO, Identity, load_decoder
+def _latent_decoder(args: argparse.Namespace, space: Any) -> Any:
+    """The latent decoder named on the command line, or None (the preset's default)."""
+    from embeddings import REMBO, load_decoder
     from embeddings.errors import EmbeddingError
 
-    if args.decoder in ("vae", "ae-dyn", "active"):
-        if not args.decoder_file:
-            how = ("ActiveSubspace.fit(...).save(FILE)" if args.decoder == "active"
-                   else f"`tensegrid train-embedding {args.decoder} --out FILE`")
-            raise EmbeddingError(f"--decoder {args.decoder} needs --decoder-file FILE; write one with {how}.")
-        decoder = load_decoder(args.decoder_file, space)
-        kind = decoder.config()["kind"]
-        if kind != args.decoder:
-            raise EmbeddingError(f"{args.decoder_file} holds a {kind} decoder, not {args.decoder}; pass --decoder {kind}.")
-    elif args.decoder_file:
-        raise EmbeddingError(f"--decoder-file is for trained decoders (vae, ae-dyn, active), not --decoder {args.decoder}.")
-    elif args.decoder == "rembo":
-        decoder = REMBO(space, dim=min(args.dim, space.dim), seed=args.seed)
-    else:
-        decoder = Identity(space)
-    points = args.points_per_dim or (1001 if decoder.dim == 1 else 11)
-    if args.decoder == "identity" and space.dim > 4:
-        return decoder, SobolCandidates.for_decoder(decoder, n=args.candidates, seed=args.seed)
-    return decoder, Grid.for_decoder(decoder, points_per_dim=points)
+    if args.decoder is None:
+        if args.decoder_file:
+            raise EmbeddingError("--decoder-file needs --decoder vae, ae-dyn or active (the kind the file holds).")
+        return None
+    if args.decoder == "rembo":
+        if args.decoder_file:
+            raise EmbeddingError("--decoder-file is for trained decoders (vae, ae-dyn, active), not --decoder rembo.")
+        return REMBO(space, dim=min(args.dim, space.dim), seed=args.seed)
+    if not args.decoder_file:
+        how = ("ActiveSubspace.fit(...).save(FILE)" if args.decoder == "active"
+               else f"`tensegrid train-embedding {args.decoder} --out FILE`")
+        raise EmbeddingError(f"--decoder {args.decoder} needs --decoder-file FILE; write one with {how}.")
+    decoder = load_decoder(args.decoder_file, space)
+    kind = decoder.config()["kind"]
+    if kind != args.decoder:
+        raise EmbeddingError(f"{args.decoder_file} holds a {kind} decoder, not {args.decoder}; pass --decoder {kind}.")
+    return decoder
 
 
-def _run(args: argparse.Namespace, objective: Any, decoder: Any, grid: Any) -> tuple[Any, Any, Any]:
-    """(result, decoder, grid) of identify() with the command line's options, after the hand-over to the
-    full space with ``--handoff``; a budget warning goes into the summary, not stderr."""
+def _preset(args: argparse.Namespace) -> Any:
+    """The preset named by --preset, sized by --latent, --candidates and --points-per-dim."""
+    from dataclasses import replace
+
+    from belief.errors import BudgetError
+
+    preset = PRESETS[args.preset]
+    if args.latent is not None:
+        if preset.latent == 0:
+            raise BudgetError(f"--latent sizes the latent stage of the handoff presets; --preset {args.preset} has "
+                              "none. Drop --latent or pass --preset handoff-gn/handoff.")
+        if args.latent < 1:
+            raise BudgetError(f"--latent must be at least 1 evaluation, got {args.latent}.")
+        preset = replace(preset, latent=args.latent)
+    return replace(preset, candidates=args.candidates, points_per_dim=args.points_per_dim or 11)
+
+
+def _run(args: argparse.Namespace, objective: Any) -> tuple[Any, Any, Any]:
+    """(result, decoder, grid of P) of the preset with the command line's options; a budget warning goes
+    into the summary, not stderr."""
     import warnings
 
     from belief.errors import BudgetWarning
-    from belief.handoff import continue_in
-    from belief.identify import identify
     from belief.posterior import PosteriorConfig
-    from embeddings import Identity
+    from belief.presets import PresetWarning, run_preset
 
     journal = None if (args.journal or "").lower() == "none" else (args.journal or os.path.join(args.out, "journal.sqlite"))
     config = PosteriorConfig(mode=args.posterior, noise_var=args.noise_var, noise_rule=args.noise_rule,
                              discrepancy=args.discrepancy)
-    options = dict(time_budget=args.time_budget, seed=args.seed, q=args.q, workers=args.workers,
-                   progress=not args.no_progress)
-    with warnings.catch_warnings():
+    decoder = _latent_decoder(args, objective.space)
+    with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("ignore", BudgetWarning)      # the summary prints it
-        if args.handoff is None:
-            return identify(objective, decoder, grid, budget=args.budget, journal=journal, method=args.search,
-                            posterior_config=config, **options), decoder, grid
-        first = identify(objective, decoder, grid, budget=args.handoff, method=args.search, posterior=None,
-                         journal=None if journal is None else os.path.splitext(journal)[0] + "-latent.sqlite",
-                         **options)
-        result = continue_in(first, objective, Identity(decoder.space), budget=args.budget, n=args.candidates,
-                             journal=journal, posterior_config=config, **options)
-    return result, Identity(decoder.space), result.belief.grid()
+        warnings.simplefilter("always", PresetWarning)
+        result = run_preset(objective, _preset(args), budget=args.budget, seed=args.seed, decoder=decoder,
+                            journal=journal, posterior_config=config, time_budget=args.time_budget, q=args.q,
+                            workers=args.workers, progress=not args.no_progress)
+    for note in caught:
+        print(f"tensegrid identify: note: {note.message}", file=sys.stderr)
+    return result, result.belief.decoder(), result.belief.grid()
 
 
 def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth: Any, datasets: list[Any]) -> None:
@@ -209,7 +224,7 @@ def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth
                 "status": h["status"].values}
     hist_tab.update({name: h["theta"].values[:, j] for j, name in enumerate(space.names)})
     pd.DataFrame(hist_tab).to_csv(os.path.join(out, "history.csv"), index=False)
-    plot_error_trace(result, os.path.join(out, "error_vs_evaluations.png"), label=f"best so far ({args.search}, {args.decoder})")
+    plot_error_trace(result, os.path.join(out, "error_vs_evaluations.png"), label=f"best so far ({args.preset})")
     plot_marginals(result.posterior, decoder.decode(np.asarray(grid.points)), space,
                    os.path.join(out, "posterior_marginals.png"), marginals=result.marginals, truth=truth)
     if result.posterior.ndim == 2 and result.posterior.dims == ("z0", "z1"):
@@ -219,20 +234,6 @@ def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth
         title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
                  if len(datasets) > 1 else "")
         _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
-
-
-def _check_handoff(args: argparse.Namespace) -> None:
-    """--handoff needs a reduced decoder and leaves evaluations for the full space."""
-    from belief.errors import BudgetError
-
-    if args.handoff is None:
-        return
-    if args.decoder == "identity":
-        raise BudgetError("--handoff hands over from a reduced decoder to the full space; with --decoder identity "
-                          "the search is already in the full space. Pass --decoder rembo/vae/ae-dyn/active.")
-    if not 1 <= args.handoff < args.budget:
-        raise BudgetError(f"--handoff {args.handoff} must be at least 1 and below --budget {args.budget}, which "
-                          "counts the evaluations of both stages.")
 
 
 def run_identify(args: argparse.Namespace) -> int:
@@ -245,10 +246,8 @@ def run_identify(args: argparse.Namespace) -> int:
     objective = None
     try:
         objective, truth, datasets = _objective(args)
-        decoder, grid = _search(args, objective.space)
         os.makedirs(args.out, exist_ok=True)
-        _check_handoff(args)
-        result, decoder, grid = _run(args, objective, decoder, grid)
+        result, decoder, grid = _run(args, objective)
     except TensegridError as exc:
         print(f"tensegrid identify: {exc}", file=sys.stderr)
         return 2
@@ -257,6 +256,7 @@ def run_identify(args: argparse.Namespace) -> int:
         if callable(close):
             close()
     _write(args, result, decoder, grid, truth, datasets)
+    print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
     print(result.summary(truth=truth))
     print(f"wrote {args.out}/result.nc, summary.txt, marginals.csv, history.csv and figures")
     return 0

@@ -11,35 +11,38 @@
         evaluate θ = decoder(z) of the others; journal each row as soon as it finishes
     return the records (ordered by batch, then cell) and why the loop stopped
 
-Evaluation: ``objective.evaluate_batch(thetas, on_result=...)`` for batches when the objective has
-it (physics.objective contract: rows stream in completion order, with segment errors); else one
-call per θ, on ``workers`` threads. Statuses follow physics.objective.STATUSES: a
-:class:`PhysicsError` is "diverged", a non-finite error or a batch row not "ok" is "failed".
+Evaluation (physics.objective contract): a batch of several cells is
+``objective.evaluate_batch(thetas, on_result=...)``, whose rows are journalled as they stream in
+(completion order); a one-cell batch is :func:`physics.objective.evaluate_row` in this process.
+Both map outcomes to physics.objective.STATUSES the same way: a :class:`PhysicsError` is
+"diverged", another tensegrid error or a non-finite error is "failed", a bug propagates.
+Plain functions θ -> E are wrapped in :class:`physics.objective.FunctionObjective` before they
+reach the driver (belief.identify), so it sees only the contract.
 
 Time budget: the journalled seconds of replayed evaluations plus this session's wall time,
-checked before each batch and, serially, before each evaluation.
+checked before each batch.
 """
 from __future__ import annotations
 
-import concurrent.futures as cf
-import inspect
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from tqdm.auto import tqdm
 
 from belief.errors import JournalError, ObjectiveError
+from belief.grid import CandidateSet
 from belief.journal import Journal, Record
 from belief.proposers import Proposal, Proposer
-from physics.errors import PhysicsError
+from embeddings.base import Decoder
+from physics.objective import STATUSES, Objective, Row, evaluate_row
 
 __all__ = ["Budget", "DriverResult", "run"]
 
-#: (error, status, message, seconds, parts): one evaluated row
-_Row = tuple[float, str, str, float, tuple[float, ...]]
+#: commit(k, row): journal row k of the batch being evaluated
+Commit = Callable[[int, Row], None]
 
 
 @dataclass(frozen=True)
@@ -60,112 +63,63 @@ class DriverResult:
     stopped: str
 
 
-def _as_error(value: Any) -> float:
-    if isinstance(value, (tuple, list)) and len(value) == 2 and isinstance(value[1], str):
-        value = value[0]
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ObjectiveError(
-            f"objective must return a scalar error (float), got {type(value).__name__}: {value!r}."
-        ) from None
-    if arr.shape != ():
-        raise ObjectiveError(f"objective must return a scalar error, got an array of shape {arr.shape}; sum it.")
-    return float(arr)
+def _checked(k: int, row: Row) -> Row:
+    """Row k of a batch, with an "ok" row whose error is not finite made "failed" (E must be a number)."""
+    error, status, seconds, message, parts = row
+    if status not in STATUSES:
+        raise ObjectiveError(f"evaluate_batch reported status {status!r} for row {k}; the physics.objective contract "
+                             f"allows {STATUSES} (map other outcomes to 'failed' with a message).")
+    if status == "ok" and not math.isfinite(error):
+        return math.nan, "failed", seconds, f"objective returned a non-finite error ({error!r})", parts
+    return row
 
 
-def _call_one(objective: Any, theta: np.ndarray) -> _Row:
-    """One evaluation: ``evaluate_parts`` when the objective has it (E = Σ parts), else the call."""
-    t0 = time.perf_counter()
-    parts_fn = getattr(objective, "evaluate_parts", None)
-    try:
-        if callable(parts_fn):
-            parts = tuple(float(v) for v in np.asarray(parts_fn(theta), dtype=float).ravel())
-            err = float(sum(parts))
-        else:
-            err = _as_error(objective(theta))
-            parts = (err,)
-    except PhysicsError as exc:
-        return float("nan"), "diverged", f"{type(exc).__name__}: {exc}", time.perf_counter() - t0, ()
-    dt = time.perf_counter() - t0
-    if not math.isfinite(err):
-        return float("nan"), "failed", f"objective returned a non-finite error ({err!r})", dt, ()
-    return err, "ok", "", dt, parts
-
-
-def _legacy_row(item: Any, seconds: float, message: str) -> _Row:
-    """A row of an evaluate_batch without the contract: an error or an (error, status) pair."""
-    status = item[1] if isinstance(item, (tuple, list)) and len(item) == 2 and isinstance(item[1], str) else "ok"
-    value = _as_error(item)
-    if status != "ok" or not math.isfinite(value):
-        return (float("nan"), "failed", f"evaluate_batch status {status!r}, error {value!r}"
-                + (f": {message}" if message else ""), float(seconds), ())
-    return value, "ok", "", float(seconds), (value,)
-
-
-def _accepts_on_result(fn: Callable[..., Any]) -> bool:
-    try:
-        return "on_result" in inspect.signature(fn).parameters
-    except (TypeError, ValueError):
-        return False
-
-
-def _evaluate_batch(objective: Any, thetas: np.ndarray, commit: Callable[[int, _Row], None]) -> None:
-    """Evaluate rows with ``objective.evaluate_batch``; ``commit(k, row)`` each as soon as it is known."""
-    if _accepts_on_result(objective.evaluate_batch):
-        def stream(k: int, err: float, status: str, seconds: float, message: str, parts: Any) -> None:
-            if status == "ok" and not math.isfinite(err):
-                status, message = "failed", f"objective returned a non-finite error ({err!r})"
-            ok = status == "ok"
-            commit(int(k), (float(err) if ok else float("nan"), status, str(message), float(seconds),
-                            tuple(float(v) for v in parts) if ok else ()))
-
-        objective.evaluate_batch(thetas, on_result=stream)
+def _evaluate(objective: Objective, thetas: np.ndarray, commit: Commit) -> None:
+    """Evaluate the rows of θs (n, D), ``commit(k, row)`` each as soon as it is known."""
+    if len(thetas) == 1:
+        commit(0, _checked(0, evaluate_row(objective, thetas[0])))
         return
-    t0 = time.perf_counter()
-    raw_obj = objective.evaluate_batch(thetas)
-    raw = list(raw_obj)
-    if len(raw) != len(thetas):
-        raise ObjectiveError(f"objective.evaluate_batch returned {len(raw)} results for {len(thetas)} thetas.")
-    even = (time.perf_counter() - t0) / len(thetas)
-    seconds = getattr(raw_obj, "seconds", None)
-    messages = getattr(raw_obj, "messages", None)
-    for k, item in enumerate(raw):
-        sec = float(seconds[k]) if seconds is not None and len(seconds) == len(raw) else even
-        why = str(messages[k]) if messages is not None and len(messages) == len(raw) and messages[k] else ""
-        commit(k, _legacy_row(item, sec, why))
+    seen: set[int] = set()
+
+    def stream(k: int, error: float, status: str, seconds: float, message: str, parts: np.ndarray) -> None:
+        seen.add(int(k))
+        commit(int(k), _checked(int(k), (float(error), status, float(seconds), str(message), np.asarray(parts))))
+
+    objective.evaluate_batch(thetas, on_result=stream)
+    missing = sorted(set(range(len(thetas))) - seen)
+    if missing:
+        raise ObjectiveError(f"{type(objective).__name__}.evaluate_batch did not report rows {missing[:5]} of "
+                             f"{len(thetas)} through on_result; the physics.objective contract calls on_result(k, ...) "
+                             "once per row.")
 
 
-def _evaluate(objective: Any, thetas: np.ndarray, commit: Callable[[int, _Row], None], *, workers: int,
-              out_of_time: Callable[[], bool]) -> bool:
-    """Evaluate a batch; returns True if the time budget stopped a serial batch early."""
-    if len(thetas) > 1 and callable(getattr(objective, "evaluate_batch", None)):
-        _evaluate_batch(objective, thetas, commit)
-    elif len(thetas) > 1 and workers > 1:
-        with cf.ThreadPoolExecutor(max_workers=int(workers)) as ex:
-            for k, fut in enumerate([ex.submit(_call_one, objective, th) for th in thetas]):
-                commit(k, fut.result())
-    else:
-        for k, th in enumerate(thetas):
-            if k > 0 and out_of_time():
-                return True
-            commit(k, _call_one(objective, th))
-    return False
-
-
-def _replayed(journal: Journal | None, grid: Any, n_target: int | None, carried: Sequence[Record] = ()) -> list[Record]:
+def _replayed(journal: Journal | None, grid: CandidateSet, n_target: int | None,
+              carried: Sequence[Record] = ()) -> list[Record]:
     """The carried records, then the journal's, each checked against its grid cell."""
     records = list(carried) + (journal.records() if journal is not None else [])
     points = np.asarray(grid.points)
     for k, r in enumerate(records):
         if not (0 <= r.cell < grid.size) or not np.array_equal(np.asarray(r.z), points[r.cell]):
-            where = "carried evaluations" if k < len(carried) else f"journal {getattr(journal, 'path', None)!r}"
+            where = "carried evaluations" if k < len(carried) else f"journal {_path(journal)!r}"
             raise JournalError(f"{where}: evaluation of cell {r.cell} does not match the grid.")
     return records[:n_target] if n_target is not None else records
 
 
-def run(objective: Any, decoder: Any, grid: Any, proposer: Proposer, budget: Budget, *, journal: Journal | None,
-        workers: int = 1, progress: bool = True, label: str = "identify",
+def _path(journal: Journal | None) -> str | None:
+    return None if journal is None else journal.path
+
+
+def _record(batch: int, cell: int, z: np.ndarray, theta: np.ndarray, row: Row) -> Record:
+    """The journal record of one evaluated row (error, status, seconds, message, parts); parts only when ok."""
+    error, status, seconds, message, parts = row
+    ok = status == "ok"
+    return Record(batch, int(cell), tuple(float(v) for v in z), tuple(float(v) for v in theta),
+                  float(error) if ok else math.nan, float(seconds), status, str(message),
+                  tuple(float(v) for v in np.ravel(parts)) if ok else ())
+
+
+def run(objective: Objective, decoder: Decoder, grid: CandidateSet, proposer: Proposer, budget: Budget, *,
+        journal: Journal | None, progress: bool = True, label: str = "identify",
         after_batch: Callable[[int, Sequence[Record], Proposal], None] | None = None,
         carried: Sequence[Record] = ()) -> DriverResult:
     """Run the loop of the module docstring; ``after_batch(n_before, history, proposal)`` is called
@@ -174,7 +128,6 @@ def run(objective: Any, decoder: Any, grid: Any, proposer: Proposer, budget: Bud
     records = _replayed(journal, grid, budget.n_target, carried)
     points = np.asarray(grid.points)
     t_start, replayed = time.perf_counter(), float(sum(r.seconds for r in records))
-    out_of_time = lambda: budget.seconds is not None and replayed + time.perf_counter() - t_start >= budget.seconds  # noqa: E731
     bar = tqdm(total=budget.n_target, initial=len(records), disable=not progress, desc=label, leave=False)
     b, stopped = 0, "budget"
     best = [min([r.error for r in records if r.status == "ok"], default=math.inf)]
@@ -188,22 +141,21 @@ def run(objective: Any, decoder: Any, grid: Any, proposer: Proposer, budget: Bud
         if len(done) >= size:
             b += 1
             continue
-        if out_of_time():
+        if budget.seconds is not None and replayed + time.perf_counter() - t_start >= budget.seconds:
             stopped = "time"
             break
         hist = [r for r in records if r.batch < b]
         proposal = proposer.propose(b, hist, size, grid)
         if not done <= set(proposal.cells):
-            raise JournalError(f"journal {getattr(journal, 'path', None)!r} diverges from the deterministic replay at "
-                               f"batch {b}; it was written by another version or options. Use a new journal path.")
+            raise JournalError(f"journal {_path(journal)!r} diverges from the deterministic replay at batch {b}; it "
+                               "was written by another version or options. Use a new journal path.")
         todo = [c for c in proposal.cells if c not in done]
-        zs, thetas = points[todo], decoder.decode(points[todo])
+        zs, thetas = points[todo], np.atleast_2d(decoder.decode(points[todo]))
         if after_batch is not None:
             after_batch(n_before, hist, proposal)
 
-        def commit(k: int, row: _Row, b: int = b) -> None:
-            rec = Record(b, int(todo[k]), tuple(float(v) for v in zs[k]), tuple(float(v) for v in thetas[k]),
-                         row[0], row[3], row[1], row[2], row[4])
+        def commit(k: int, row: Row, b: int = b) -> None:
+            rec = _record(b, todo[k], zs[k], thetas[k], row)
             if journal is not None:
                 journal.append(rec)
             records.append(rec)
@@ -212,9 +164,7 @@ def run(objective: Any, decoder: Any, grid: Any, proposer: Proposer, budget: Bud
                 best[0] = min(best[0], rec.error)
                 bar.set_postfix(best=f"{best[0]:.4g}", refresh=False)
 
-        if _evaluate(objective, thetas, commit, workers=workers, out_of_time=out_of_time):
-            stopped = "time"
-            break
+        _evaluate(objective, thetas, commit)
         b += 1
     bar.close()
     records.sort(key=lambda r: (r.batch, r.cell))

@@ -1,33 +1,39 @@
 """Candidate sets over a decoder's latent box: a regular ``Grid`` and scattered ``SobolCandidates``.
 
-Both share one protocol, which the rest of belief uses:
+Both implement one contract, the abstract base class :class:`CandidateSet`, which the rest of
+belief is typed against (a new kind of candidate set subclasses it):
 
 - ``points``: ``n x d`` float array of cell centres (latent coordinates);
 - ``dims``: dimension names of the DataArray a flat vector of length ``n`` becomes
   (``("z0", ..., "z{d-1}")`` for a grid, ``("cell",)`` for scattered points);
 - ``to_dataarray(values)``: flat ``n`` vector -> ``xarray.DataArray`` (coordinates = latent values);
 - ``bounds`` (``d x 2``), ``dim`` (d), ``size`` (n), ``config()`` (JSON-able, for the journal),
-  ``nearest(z)`` (index of the cell nearest to each latent point, ``m x d`` -> ``m``).
+  ``nearest(z)`` (index of the cell nearest to each latent point, ``m x d`` -> ``m``);
+- ``from_config(config)`` (classmethod): the candidate set whose ``config()`` equals ``config``.
 
 The paper discretizes Θ with a regular grid (Sec. III); in 15-D a grid is impossible (even 3 points
 per axis give 1.4e7 cells), so full-space baselines use a scrambled Sobol set (scipy.stats.qmc).
 """
 from __future__ import annotations
 
+import abc
 import json
 import warnings
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence, TypeVar
 
 import numpy as np
 import xarray as xr
 from scipy.stats import qmc
 
 from belief.errors import GridError
+from embeddings.base import Decoder
 
 __all__ = ["Grid", "SobolCandidates", "CandidateSet", "MAX_CELLS", "candidates_from_config"]
 
 #: refuse grids above this many cells (memory of ``points`` and of the GP prediction)
 MAX_CELLS = 20_000_000
+
+_C = TypeVar("_C", bound="CandidateSet")
 
 
 def _check_bounds(bounds: "np.ndarray | Sequence[Sequence[float]]") -> np.ndarray:
@@ -39,11 +45,31 @@ def _check_bounds(bounds: "np.ndarray | Sequence[Sequence[float]]") -> np.ndarra
     return b
 
 
-class CandidateSet:
-    """Common code of :class:`Grid` and :class:`SobolCandidates` (see module docstring)."""
+class CandidateSet(abc.ABC):
+    """The candidate-set contract (module docstring): n cells of a d-dimensional latent box, with the
+    code :class:`Grid` and :class:`SobolCandidates` share; subclasses set ``bounds`` (d x 2) and
+    ``_points`` (n x d, read-only) and define the abstract members."""
 
     bounds: np.ndarray
     _points: np.ndarray
+
+    @property
+    @abc.abstractmethod
+    def dims(self) -> tuple[str, ...]:
+        """Dimension names of the DataArray a flat vector of n values becomes."""
+
+    @abc.abstractmethod
+    def to_dataarray(self, values: "np.ndarray", *, name: str | None = None) -> xr.DataArray:
+        """Flat vector (n) -> DataArray over :attr:`dims` with the latent coordinates."""
+
+    @abc.abstractmethod
+    def config(self) -> dict[str, Any]:
+        """JSON-able description with ``kind``, from which :meth:`from_config` rebuilds the same cells."""
+
+    @classmethod
+    @abc.abstractmethod
+    def from_config(cls: "type[_C]", config: Mapping[str, Any]) -> "_C":
+        """The candidate set whose ``config()`` equals ``config``."""
 
     @property
     def dim(self) -> int:
@@ -119,7 +145,7 @@ class Grid(CandidateSet):
         self._points.setflags(write=False)
 
     @classmethod
-    def for_decoder(cls, decoder: Any, *, points_per_dim: "int | Sequence[int]" = 11) -> "Grid":
+    def for_decoder(cls, decoder: Decoder, *, points_per_dim: "int | Sequence[int]" = 11) -> "Grid":
         """Grid over ``decoder.bounds``."""
         return cls(decoder.bounds, points_per_dim=points_per_dim)
 
@@ -151,7 +177,7 @@ class Grid(CandidateSet):
         return {"kind": "grid", "bounds": self.bounds.tolist(), "points_per_dim": list(self.points_per_dim)}
 
     @classmethod
-    def from_config(cls, config: dict[str, Any]) -> "Grid":
+    def from_config(cls, config: Mapping[str, Any]) -> "Grid":
         """The Grid whose ``config()`` equals ``config`` (kind "grid", ``bounds`` d x 2, ``points_per_dim``)."""
         _require(config, "grid", ("bounds", "points_per_dim"))
         return _same_config(cls(config["bounds"], points_per_dim=config["points_per_dim"]), config)
@@ -191,7 +217,7 @@ class SobolCandidates(CandidateSet):
         self._points.setflags(write=False)
 
     @classmethod
-    def for_decoder(cls, decoder: Any, *, n: int, seed: int) -> "SobolCandidates":
+    def for_decoder(cls, decoder: Decoder, *, n: int, seed: int) -> "SobolCandidates":
         return cls(decoder.bounds, n=n, seed=seed)
 
     @property
@@ -212,38 +238,43 @@ class SobolCandidates(CandidateSet):
         return out
 
     @classmethod
-    def from_config(cls, config: dict[str, Any]) -> "SobolCandidates":
+    def from_config(cls, config: Mapping[str, Any]) -> "SobolCandidates":
         """The SobolCandidates whose ``config()`` equals ``config`` (kind "sobol", ``bounds``, ``n``, ``seed``)."""
         _require(config, "sobol", ("bounds", "n", "seed"))
         return _same_config(cls(config["bounds"], n=config["n"], seed=config["seed"],
                                 include=config.get("include")), config)
 
 
-_KINDS: dict[str, type] = {"grid": Grid, "sobol": SobolCandidates}
+_KINDS: dict[str, type[CandidateSet]] = {"grid": Grid, "sobol": SobolCandidates}
 
 
-def candidates_from_config(config: dict[str, Any]) -> CandidateSet:
+def candidates_from_config(config: Mapping[str, Any]) -> CandidateSet:
     """The Grid or SobolCandidates whose ``config()`` equals ``config`` (a saved belief's grid), by its ``kind``."""
-    kind = config.get("kind") if isinstance(config, dict) else None
+    kind = config.get("kind") if isinstance(config, Mapping) else None
     if kind not in _KINDS:
         raise GridError(f"unknown candidate-set kind {kind!r} in the saved configuration; expected one of "
                         f"{sorted(_KINDS)} (a dict from Grid.config() or SobolCandidates.config()).")
     return _KINDS[kind].from_config(config)
 
 
-def _require(config: Any, kind: str, keys: tuple[str, ...]) -> None:
-    if not isinstance(config, dict) or config.get("kind") != kind:
-        got = config.get("kind") if isinstance(config, dict) else type(config).__name__
+def _require(config: object, kind: str, keys: tuple[str, ...]) -> None:
+    if not isinstance(config, Mapping) or config.get("kind") != kind:
+        got = config.get("kind") if isinstance(config, Mapping) else type(config).__name__
         raise GridError(f"config must be a dict with kind {kind!r} (from config()), got {got!r}.")
     missing = [k for k in keys if k not in config]
     if missing:
         raise GridError(f"the saved {kind} configuration lacks {missing} (has {sorted(config)}); save it with config().")
 
 
-def _same_config(cells: CandidateSet, config: dict[str, Any]) -> Any:
+def _jsonable(value: object) -> object:
+    """numpy arrays and scalars as lists and numbers, anything else as its str (json.dumps default)."""
+    return value.tolist() if isinstance(value, (np.ndarray, np.generic)) else str(value)
+
+
+def _same_config(cells: _C, config: Mapping[str, Any]) -> _C:
     """``cells``, after checking that its config() equals ``config`` (compared as JSON)."""
     rebuilt = json.loads(json.dumps(cells.config()))
-    saved = json.loads(json.dumps(config, default=lambda v: v.tolist() if hasattr(v, "tolist") else str(v)))
+    saved = json.loads(json.dumps(dict(config), default=_jsonable))
     if rebuilt != saved:
         keys = sorted(k for k in set(rebuilt) | set(saved) if rebuilt.get(k) != saved.get(k))
         raise GridError(f"the rebuilt candidate set differs from the saved configuration in {keys}: saved "

@@ -1,317 +1,48 @@
-"""Algorithm 1 of Zhu et al. 2018: Bayesian optimization of E(θ) over a discretized latent grid,
-returning a distribution P over the grid instead of a point.
+"""The entry point: identify θ from an objective E(θ), by a named recipe or by one search.
 
 ::
 
-    input: objective E, decoder z -> θ, grid of latent cells, budget (evaluations and/or seconds), seed
-    1  evaluate E at an initial design of n_init cells (scrambled Sobol points of the latent box,
-       snapped to their nearest cells; ``method="random"``: a seeded random permutation of cells)
-    2  repeat until the budget is spent:
-    3      fit the GP surrogate to the successful evaluations              (belief.surrogate)
-    4      choose q unevaluated cells maximizing log EI (kriging believer)  (belief.acquisition)
-    5      evaluate E at θ = decoder(z) of each chosen cell, journal each   (belief.journal)
-    6      update P from the GP (only when a ``callback`` wants it: it costs a pass over the grid)
-    7  fit the GP to all evaluations; assess it into a Belief (σ² from the residuals, P,
-       segment posteriors, verdicts: belief.assess); return it with the history and the best θ
+    identify(E, budget=60, seed=0)                         the best recipe, DEFAULT_PRESET
+    identify(E, budget=60, seed=0, preset="bo")            another recipe (belief.presets)
+    identify(E, decoder, budget=60, seed=0, preset="latent")   a recipe with this latent decoder
+    identify(E, decoder, grid, budget=60, seed=0)          one search over ``grid`` (belief.search)
 
-Steps 1 and 3-4 are a *proposer* (belief.proposers: ``method="bo"`` is :class:`BOProposer`,
-``method="random"`` :class:`RandomProposer`, or pass ``proposer=``); budgets, journal and
-evaluation are the driver's (belief.driver).
-
-``method="random"`` replaces steps 3-4 by the next cells of the permutation (random search
-baseline; with the ``Identity`` decoder on ``SobolCandidates`` it is random search in the full
-space). BO in the full space is ``method="bo"`` with the same decoder and candidates.
-
-Failed evaluations (the objective raised :class:`physics.errors.PhysicsError`: status "diverged";
-or returned NaN/inf: "failed") are journalled with error NaN, never proposed again, and left out of the GP
-fit (``impute_failed=True`` instead gives them the worst observed error, which pushes the search
-away from them). Their cells get P = 0.
-
-Determinism: every batch is a function of the seed and the history before it (the GP fit starts
-from fixed values and runs single-threaded, ties break to the lowest cell index), so a journalled
-run that is killed and resumed ends with exactly the history (cells, z, θ, E, status) of an
-uninterrupted run (wall-clock ``seconds`` differ, and so can a ``time_budget`` stop). Each
-evaluation is journalled as soon as it finishes, also inside a parallel batch when
-``objective.evaluate_batch`` takes ``on_result`` (physics.TrajectoryError does): a kill mid-batch
-loses only the evaluations still running, and the resumed run evaluates just the batch's missing
-cells. The returned history is ordered by batch, then cell index, because a parallel batch
-finishes in any order.
-
-Time budget: counts the journalled seconds of replayed evaluations plus this session's wall time;
-it is checked before each evaluation.
-
-Why not botorch/Ax: the project uses pyro.contrib.gp for the GP (DESIGN.md), and the loop is over
-a finite set of cells, which needs no continuous acquisition optimizer.
+Without a grid, ``identify`` runs a preset over the one driver, its stages choosing their own
+candidate sets; ``decoder`` is then the latent stage's decoder. With a grid it runs one search of
+Algorithm 1 over it with ``decoder``, and ``preset`` must be left out. Every other option goes to
+the stages (journal, time_budget, q, n_init, posterior_config, verdict_config, progress, ...;
+belief.search.search lists them).
 """
 from __future__ import annotations
 
-import hashlib
-import json
-import math
-import os
-from typing import Any, Callable, Literal, Sequence
+from typing import Any
 
-import numpy as np
-import xarray as xr
+from belief.errors import BeliefError, BudgetError
+from belief.grid import CandidateSet
+from belief.presets import DEFAULT_PRESET, Preset, run_preset
+from belief.result import IdentificationResult
+from belief.search import search
+from embeddings.base import Decoder
+from physics.objective import Objective, ObjectiveFunction
 
-from belief.assess import assess
-from belief.driver import Budget, run
-from belief.errors import BeliefError, BudgetError, GridError, ObjectiveError
-from belief.journal import Journal, Record
-from belief.posterior import PosteriorConfig, posterior_from_surrogate
-from belief.proposers import BOProposer, Proposer, RandomProposer, fit_surrogate
-from belief.result import IdentificationResult, history_dataset
-from belief.surrogate import SurrogateConfig
-from belief.verdicts import VerdictConfig
-
-__all__ = ["identify", "problem_fingerprint"]
-
-_METHODS = ("bo", "random")
+__all__ = ["identify"]
 
 
-def _space_config(space: Any) -> dict[str, Any]:
-    return {"names": list(space.names), "units": list(space.units),
-            "lower": [float(v) for v in space.lower], "upper": [float(v) for v in space.upper]}
-
-
-def problem_fingerprint(
-    objective: Any, decoder: Any, grid: Any, *, space: Any, seed: int, method: str, q: int, n_init: int,
-    surrogate: SurrogateConfig, impute_failed: bool, proposer: Proposer | None = None,
-) -> dict[str, Any]:
-    """The JSON-able identity of an identification problem, stored in and checked against a journal."""
-    fp: dict[str, Any] = {
-        "space": _space_config(space), "decoder": decoder.config(), "grid": grid.config(), "seed": int(seed),
-        "method": method, "q": int(q), "n_init": int(n_init), "impute_failed": bool(impute_failed),
-        "surrogate": {k: getattr(surrogate, k) for k in surrogate.__dataclass_fields__},
-    }
-    if proposer is not None:
-        fp["proposer"] = proposer.config()
-    fpf = getattr(objective, "fingerprint", None)
-    if callable(fpf):
-        fp["objective"] = fpf()
-    return fp
-
-
-def _validate_problem(objective: Any, decoder: Any, grid: Any, space: Any) -> Any:
-    """The parameter space, after checking that objective, decoder and grid fit together."""
-    if not callable(objective):
-        raise ObjectiveError(f"objective must be callable theta -> float, got {type(objective).__name__}.")
-    space = space if space is not None else getattr(objective, "space", None)
-    if space is None:
-        raise BeliefError("identify needs the parameter space: pass space=... or give the objective a .space attribute.")
-    dspace = getattr(decoder, "space", None)
-    if dspace is None or not callable(getattr(decoder, "decode", None)):
-        raise BeliefError(f"decoder must have .space and .decode(z) (an embeddings.Decoder), got {type(decoder).__name__}.")
-    if tuple(dspace.names) != tuple(space.names) or not (
-        np.allclose(dspace.lower, space.lower) and np.allclose(dspace.upper, space.upper)
-    ):
-        raise BeliefError(
-            f"decoder's parameter space {list(dspace.names)} (bounds) differs from the objective's "
-            f"{list(space.names)}; build the decoder on objective.space."
-        )
-    for attr in ("points", "size", "dim", "bounds", "to_dataarray", "config", "nearest"):
-        if not hasattr(grid, attr):
-            raise GridError(f"grid lacks .{attr}; pass a belief.Grid or belief.SobolCandidates.")
-    if grid.size < 1:
-        raise GridError("grid is empty (0 cells); give points_per_dim >= 2 or n >= 1.")
-    if grid.dim != decoder.dim:
-        raise GridError(
-            f"grid has {grid.dim} latent dimensions but the decoder has {decoder.dim}; build the grid with "
-            "Grid.for_decoder(decoder, ...)."
-        )
-    lo, hi = decoder.bounds[:, 0], decoder.bounds[:, 1]
-    tol = 1e-9 * (hi - lo)
-    if np.any(grid.bounds[:, 0] < lo - tol) or np.any(grid.bounds[:, 1] > hi + tol):
-        raise GridError(f"grid bounds {grid.bounds.tolist()} leave the decoder's latent box {decoder.bounds.tolist()}.")
-    return space
-
-
-def _validate_budget(grid: Any, decoder: Any, budget: Any, time_budget: Any, method: str, q: Any, n_init: Any,
-                     workers: Any, seed: Any) -> tuple[int, int]:
-    """(evaluations to reach, initial design size), after checking budgets and options."""
-    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
-        raise BeliefError(f"seed must be an integer, got {seed!r}.")
-    if budget is None and time_budget is None:
-        raise BudgetError("give budget=N evaluations and/or time_budget=seconds; both are None.")
-    if budget is not None:
-        if not isinstance(budget, (int, np.integer)) or isinstance(budget, bool):
-            raise BudgetError(f"budget must be an integer number of evaluations, got {budget!r}.")
-        if budget < 1:
-            raise BudgetError(f"budget must be >= 1 evaluation, got {budget!r}; a zero budget identifies nothing.")
-        if budget > grid.size:
-            raise BudgetError(
-                f"budget={budget} exceeds the {grid.size} grid cells (each cell is evaluated at most once); "
-                "use a finer grid or a smaller budget."
-            )
-    if time_budget is not None and not (isinstance(time_budget, (int, float)) and math.isfinite(time_budget)
-                                        and time_budget > 0):
-        raise BudgetError(f"time_budget must be a positive number of seconds, got {time_budget!r}.")
-    if method not in _METHODS:
-        raise BeliefError(f"method must be one of {_METHODS}, got {method!r}.")
-    if not isinstance(q, (int, np.integer)) or q < 1:
-        raise BudgetError(f"q (cells per batch) must be an integer >= 1, got {q!r}.")
-    if not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise BeliefError(f"workers must be an integer >= 1, got {workers!r}.")
-    n_target = int(budget) if budget is not None else int(grid.size)
-    if n_init is None:
-        n_init = max(5, decoder.dim + 1)
-    if not isinstance(n_init, (int, np.integer)) or n_init < 1:
-        raise BudgetError(f"n_init must be an integer >= 1, got {n_init!r}.")
-    if method == "bo" and n_init < 2:
-        raise BudgetError(f"method='bo' needs n_init >= 2 initial evaluations to fit the GP, got {n_init}.")
-    return n_target, int(n_init)
-
-
-def _carried_init(carry: Sequence[Record], n_init: Any) -> Any:
-    """The initial design size with carried evaluations: their number (they are batch 0)."""
-    if not carry:
-        return n_init
-    if any(not isinstance(r, Record) or r.batch != 0 for r in carry):
-        raise BeliefError("carry must be belief.Record rows of batch 0 (build them with belief.handoff.carry_over).")
-    if n_init is not None and n_init != len(carry):
-        raise BudgetError(f"n_init={n_init} contradicts the {len(carry)} carried evaluations, which are the initial "
-                          "design; leave n_init unset.")
-    return len(carry)
-
-
-def _carried_fingerprint(carry: Sequence[Record]) -> dict[str, Any]:
-    """Number and SHA-256 of the carried (cell, E, status): a journal refuses other carried data."""
-    text = json.dumps([[r.cell, repr(r.error), r.status] for r in carry])
-    return {"n": len(carry), "sha256": hashlib.sha256(text.encode()).hexdigest()}
-
-
-def _posterior_config(posterior: str | None, posterior_config: PosteriorConfig | None,
-                      noise_var: float | None) -> PosteriorConfig:
-    if posterior is not None and posterior_config is not None and posterior_config.mode != posterior:
-        raise BeliefError(
-            f"posterior={posterior!r} contradicts posterior_config.mode={posterior_config.mode!r}; give one of them."
-        )
-    pcfg = posterior_config or PosteriorConfig(mode=posterior or "likelihood", noise_var=noise_var)
-    if noise_var is not None and pcfg.noise_var is None:
-        pcfg = PosteriorConfig(**{**pcfg.__dict__, "noise_var": noise_var})
-    return pcfg
-
-
-def _callback_hook(callback: Callable[[int, xr.DataArray], None] | None, objective: Any, grid: Any,
-                   pcfg: PosteriorConfig, seed: int) -> Any:
-    """after_batch hook of the driver that reports P (σ² by the iid rule or the known noise) before each batch."""
-    if callback is None:
-        return None
-    from belief.noise import iid_noise_var
-
-    def hook(n_before: int, hist: Any, proposal: Any) -> None:
-        if proposal.model is None:
-            return
-        ok = np.array([r.error for r in hist if r.status == "ok"])
-        nv = pcfg.noise_var or getattr(objective, "noise_var", None)
-        known = nv is not None
-        if pcfg.mode == "likelihood" and nv is None:
-            nv = iid_noise_var(ok, n_observations=int(getattr(objective, "n_observations", 1)), dim=grid.dim)
-        failed = np.zeros(grid.size, dtype=bool)
-        failed[[r.cell for r in hist if r.status != "ok"]] = True
-        callback(n_before, posterior_from_surrogate(proposal.model, grid, config=pcfg, noise_var=nv, failed=failed,
-                                                    seed=seed, prediction=proposal.prediction, noise_known=known))
-
-    return hook
-
-
-def identify(
-    objective: Callable[[np.ndarray], float],
-    decoder: Any,
-    grid: Any,
-    *,
-    budget: int | None = None,
-    seed: int,
-    journal: "str | os.PathLike[str] | None" = None,
-    time_budget: float | None = None,
-    method: Literal["bo", "random"] = "bo",
-    proposer: Proposer | None = None,
-    q: int = 1,
-    n_init: int | None = None,
-    posterior: Literal["likelihood", "minimizer"] | None = "likelihood",
-    noise_var: float | None = None,
-    space: Any = None,
-    surrogate: SurrogateConfig | None = None,
-    posterior_config: PosteriorConfig | None = None,
-    verdict_config: VerdictConfig | None = None,
-    workers: int = 1,
-    impute_failed: bool = False,
-    progress: bool = True,
-    callback: Callable[[int, xr.DataArray], None] | None = None,
-    carry: Sequence[Record] = (),
-) -> IdentificationResult:
-    """Identify θ by Algorithm 1 (module docstring) and return the belief over ``grid``.
-
-    ``objective``: callable θ (shape ``D``) -> E (float), ideally the physics.objective contract
-    (``space``, ``segments``, ``evaluate_parts``, ``evaluate_batch``, ``residuals``, ``noise_var``,
-    ``n_observations``, ``fingerprint()``); ``decoder``: an ``embeddings.Decoder``; ``grid``:
-    ``belief.Grid`` or ``belief.SobolCandidates`` over ``decoder.bounds``. ``budget``: evaluations;
-    ``time_budget``: seconds (either or both); ``seed``: all randomness; ``journal``: SQLite path,
-    resumed if it exists; ``method``: built-in proposer, or ``proposer=`` any belief.proposers.Proposer;
-    ``q``: cells per batch; ``n_init``: initial design size (default max(5, d + 1)); ``posterior``:
-    mode of P, or None to skip it; ``noise_var``: σ² of the likelihood mode (default: the
-    objective's, else ``posterior_config.noise_rule``); ``verdict_config``: thresholds of the
-    verdicts (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check); ``callback(n_evaluations, P)``: called
-    before every batch with a fitted surrogate (one extra pass over the grid per batch); ``carry``:
-    evaluations made before this run, as batch 0 (belief.handoff builds them; ``n_init`` is their number).
-    """
-    space = _validate_problem(objective, decoder, grid, space)
-    n_init = _carried_init(carry, n_init)
-    n_target, n_init = _validate_budget(grid, decoder, budget, time_budget, method, q, n_init, workers, seed)
-    seed, scfg = int(seed), surrogate or SurrogateConfig()
-    pcfg = _posterior_config(posterior, posterior_config, noise_var)
-    custom = proposer is not None
-    if proposer is None:
-        proposer = (RandomProposer(seed) if method == "random"
-                    else BOProposer(seed, surrogate=scfg, impute_failed=impute_failed))
-    fp = problem_fingerprint(objective, decoder, grid, space=space, seed=seed, method=method, q=int(q), n_init=n_init,
-                             surrogate=scfg, impute_failed=impute_failed, proposer=proposer if custom else None)
-    if carry:
-        fp["carried"] = _carried_fingerprint(carry)
-    jr = Journal(journal, fp) if journal is not None else None
-    try:
-        out = run(objective, decoder, grid, proposer, Budget(n_target, time_budget, n_init, int(q)), journal=jr,
-                  workers=int(workers), progress=progress, label=f"identify[{method}]",
-                  after_batch=_callback_hook(callback if posterior is not None else None, objective, grid, pcfg, seed),
-                  carried=tuple(carry))
-    finally:
-        if jr is not None:
-            jr.close()
-    return _result(objective, decoder, grid, out, space=space, config=fp, pcfg=pcfg if posterior else None,
-                   scfg=scfg, impute_failed=impute_failed, seed=seed, vcfg=verdict_config,
-                   extra={"budget": budget, "time_budget": time_budget})
-
-
-def _result(objective: Any, decoder: Any, grid: Any, out: Any, *, space: Any, config: dict[str, Any],
-            pcfg: PosteriorConfig | None, scfg: SurrogateConfig, impute_failed: bool, seed: int,
-            extra: dict[str, Any], vcfg: VerdictConfig | None = None) -> IdentificationResult:
-    """The IdentificationResult of the driver's records: best θ, history and (with ``pcfg``) the Belief."""
-    records = out.records
-    ok = [r for r in records if r.status == "ok"]
-    if not records:
-        raise BudgetError(f"time_budget={extra.get('time_budget')!r} s was spent before the first evaluation; raise it.")
-    if not ok:
-        raise ObjectiveError(
-            f"all {len(records)} evaluations failed (first: {records[0].message}); the parameter box may be "
-            "non-physical for this simulator, or the objective is broken."
-        )
-    best = min(ok, key=lambda r: r.error)
-    best_theta = xr.DataArray(np.asarray(best.theta), dims=("parameter",), name="best_theta",
-                              coords={"parameter": list(space.names), "unit": ("parameter", list(space.units))})
-    belief = None
-    if pcfg is not None:
-        model = fit_surrogate(records, grid, scfg, impute_failed=impute_failed)
-        if model is None:
-            raise ObjectiveError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
-        belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=seed,
-                        verdict_config=vcfg)
-    segments = tuple(getattr(objective, "segments", ()) or ()) or ("all",)
-    hist = history_dataset(records, latent_names=tuple(f"z{i}" for i in range(grid.dim)), space=space,
-                           segments=segments)
-    cfg = dict(config)
-    cfg.update(extra)
-    cfg.update({"posterior": pcfg.mode if pcfg else None, "stopped": out.stopped, "n_evaluations": len(records),
-                "noise_var": None if belief is None else belief.attrs.get("noise_var"),
-                "noise_rule": None if belief is None else belief.attrs.get("noise_rule")})
-    return IdentificationResult(belief=belief, history=hist, best_theta=best_theta, best_error=float(best.error),
-                                config=cfg)
+def identify(objective: "Objective | ObjectiveFunction", decoder: Decoder | None = None,
+             grid: CandidateSet | None = None, *, budget: int | None = None, seed: int,
+             preset: "str | Preset | None" = None, **options: Any) -> IdentificationResult:
+    """Identify θ by ``preset`` (default :data:`belief.presets.DEFAULT_PRESET`), or by one search
+    over ``grid`` with ``decoder`` when a grid is given (module docstring)."""
+    if grid is None:
+        if budget is None:
+            raise BudgetError("a preset needs budget=N evaluations (it splits them between its stages); "
+                              "pass budget=, or a decoder and grid for a search bounded by time_budget alone.")
+        return run_preset(objective, preset if preset is not None else DEFAULT_PRESET, budget=budget, seed=seed,
+                          decoder=decoder, **options)
+    if decoder is None:
+        raise BeliefError("a grid needs the decoder that maps its cells to θ: identify(objective, decoder, grid, ...); "
+                          "or leave out both and name a preset.")
+    if preset is not None:
+        raise BeliefError(f"preset={preset!r} chooses its own candidate sets; pass either a preset or a grid "
+                          "(one search over it), not both.")
+    return search(objective, decoder, grid, budget=budget, seed=seed, **options)

@@ -18,12 +18,13 @@ the trust region then steps away from.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 from scipy.optimize import least_squares as scipy_least_squares
 
 from belief.errors import BeliefError
+from physics.objective import Objective
 
 __all__ = ["LeastSquaresConfig", "LocalFit", "refine", "StepConfig", "LocalStep", "gauss_newton_step"]
 
@@ -66,7 +67,7 @@ def _flat(residuals: Sequence[np.ndarray], mask: np.ndarray) -> np.ndarray:
 class _Problem:
     """r(u) and J(u) of the masked segments for scipy, each θ evaluated once (cached)."""
 
-    def __init__(self, objective: Any, theta: np.ndarray, indices: list[int], mask: np.ndarray, step: float) -> None:
+    def __init__(self, objective: Objective, theta: np.ndarray, indices: list[int], mask: np.ndarray, step: float) -> None:
         self.objective, self.theta, self.indices, self.mask, self.step = objective, theta, indices, mask, step
         self.lower, self.width = objective.space.lower[indices], objective.space.upper[indices] - objective.space.lower[indices]
         self.cache: dict[bytes, list[np.ndarray] | None] = {}
@@ -117,11 +118,11 @@ class _Problem:
         return np.frombuffer(key, dtype=float), res
 
 
-def refine(objective: Any, theta: np.ndarray, indices: Sequence[int], mask: Sequence[bool],
+def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask: Sequence[bool],
            config: LeastSquaresConfig = LeastSquaresConfig()) -> LocalFit:
     """Refine θ[indices] (θ (D,)) on the segments ``mask`` (S,) by bounded least squares (module
-    docstring). The objective needs ``residuals_batch`` (physics.objective). Raises BeliefError
-    if the simulation at θ itself fails."""
+    docstring) from the objective's ``residuals_batch``. Raises BeliefError if the simulation at θ
+    itself fails, NoResidualsError if the objective has no residuals."""
     theta = np.asarray(theta, float).copy()
     mask = np.asarray(mask, bool)
     index = [int(j) for j in indices]
@@ -186,14 +187,15 @@ class LocalStep:
         return np.sqrt(np.clip(np.diag(cov), 0.0, None)) * self.width
 
 
-def gauss_newton_step(objective: Any, theta: np.ndarray, config: StepConfig = StepConfig()) -> LocalStep:
+def gauss_newton_step(objective: Objective, theta: np.ndarray, config: StepConfig = StepConfig()) -> LocalStep:
     """One damped Gauss-Newton step from θ (D,) over all parameters and segments.
 
     With r, J at u (unit box; J by forward differences, one batch of D evaluations), the step is
     Δ = argmin ||r + JΔ||² + λ||Δ||² subject to the box and |Δ_j| <= radius (scipy's lsq_linear);
     the trial points u + aΔ for a in ``lengths`` are evaluated in one more batch. Costs D + 1 +
     len(lengths) evaluations. The result's theta is the best point evaluated (the start if no
-    trial lowers E). Raises BeliefError if the simulation at θ fails.
+    trial lowers E). Raises BeliefError if the simulation at θ fails, NoResidualsError if the
+    objective has no residuals (a wrapped plain function).
     """
     from scipy.optimize import lsq_linear
 

@@ -8,7 +8,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import matplotlib
 
@@ -17,10 +17,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from embeddings.base import Decoder  # noqa: E402
+from embeddings.identity import Identity  # noqa: E402
+from physics.parameters import ParameterSpace  # noqa: E402
+
+if TYPE_CHECKING:
+    from belief.result import IdentificationResult
+
 __all__ = ["plot_error_trace", "plot_marginals", "plot_posterior_2d"]
 
 
-def plot_error_trace(result: Any, path: "str | os.PathLike[str]", *, label: str | None = None) -> None:
+def plot_error_trace(result: IdentificationResult, path: "str | os.PathLike[str]", *, label: str | None = None) -> None:
     """Scatter E per evaluation (failed ones marked at the top) and the running minimum; log y axis if E > 0."""
     h = result.history
     err = h["error"].values
@@ -44,7 +51,7 @@ def plot_error_trace(result: Any, path: "str | os.PathLike[str]", *, label: str 
 
 
 def plot_marginals(
-    P: xr.DataArray, theta: np.ndarray, space: Any, path: "str | os.PathLike[str]", *,
+    P: xr.DataArray, theta: np.ndarray, space: ParameterSpace, path: "str | os.PathLike[str]", *,
     marginals: xr.Dataset | None = None, truth: Sequence[float] | None = None, bins: int = 30,
 ) -> None:
     """One panel per parameter: histogram of θ_j weighted by P (``theta``: decoded cells ``n x D``) vs the
@@ -81,9 +88,9 @@ def plot_marginals(
 
 
 def plot_posterior_2d(
-    P: xr.DataArray, path: "str | os.PathLike[str]", *, decoder: Any | None = None,
+    P: xr.DataArray, path: "str | os.PathLike[str]", *, decoder: Decoder | None = None,
     evaluated: np.ndarray | None = None, truth: Sequence[float] | None = None,
-    ridge: "Any | None" = None, title: str = "posterior P",
+    ridge: Callable[[np.ndarray], np.ndarray] | None = None, title: str = "posterior P",
 ) -> None:
     """Image of a 2-D P (dims z0, z1); axes in θ units when ``decoder`` maps z linearly (Identity).
 
@@ -96,7 +103,7 @@ def plot_posterior_2d(
     x, y = z0, z1
     xl, yl = P.dims[0], P.dims[1]
     to_xy = lambda z: z  # noqa: E731
-    if decoder is not None and decoder.config().get("kind") == "identity":
+    if isinstance(decoder, Identity):
         lo, hi = decoder.space.lower, decoder.space.upper
         x, y = lo[0] + z0 * (hi[0] - lo[0]), lo[1] + z1 * (hi[1] - lo[1])
         xl = f"{decoder.space.names[0]} [{decoder.space.units[0]}]"

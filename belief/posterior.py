@@ -58,7 +58,7 @@ P is an ``xarray.DataArray`` named "P" over the grid dims, non-negative, summing
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import xarray as xr
@@ -66,6 +66,11 @@ from scipy.special import log_ndtr, logsumexp
 
 from belief.errors import BeliefError
 from belief.noise import NOISE_RULES, iid_noise_var
+
+if TYPE_CHECKING:
+    from belief.grid import CandidateSet
+    from belief.surrogate import GPSurrogate
+    from physics.parameters import ParameterSpace
 
 __all__ = [
     "FLOORS",
@@ -200,7 +205,7 @@ def _log_transform_expectation(m: np.ndarray, s: np.ndarray, a: float, shift: fl
         return np.maximum(np.logaddexp(first, second), -np.finfo(float).max)
 
 
-def error_floor(surrogate: Any, config: PosteriorConfig, *, noise_known: bool = False) -> float:
+def error_floor(surrogate: GPSurrogate, config: PosteriorConfig, *, noise_known: bool = False) -> float:
     """F of the likelihood (module docstring): the smallest error the surrogate was fitted to with
     ``config.floor`` "best", or "auto" and σ² estimated (``noise_known`` False); else 0."""
     if config.floor == "zero" or (config.floor == "auto" and noise_known):
@@ -220,8 +225,8 @@ def _normalize_log(logp: np.ndarray, failed: np.ndarray | None) -> np.ndarray:
 
 
 def posterior_from_surrogate(
-    surrogate: Any,
-    grid: Any,
+    surrogate: GPSurrogate,
+    grid: CandidateSet,
     *,
     config: PosteriorConfig,
     noise_var: float | None = None,
@@ -260,7 +265,7 @@ def posterior_from_surrogate(
     return da
 
 
-def _minimizer_probability(surrogate: Any, pts: np.ndarray, *, config: PosteriorConfig,
+def _minimizer_probability(surrogate: GPSurrogate, pts: np.ndarray, *, config: PosteriorConfig,
                            failed: np.ndarray | None, seed: int,
                            prediction: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
     mean, var = prediction if prediction is not None else surrogate.predict(pts)
@@ -325,7 +330,7 @@ def entropy(P: xr.DataArray) -> float:
 def marginals(
     P: xr.DataArray,
     theta: np.ndarray,
-    space: Any,
+    space: ParameterSpace,
     *,
     level: float = 0.9,
     identified_ratio: float = 0.5,

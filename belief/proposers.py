@@ -1,6 +1,6 @@
 """Proposers: which cells to evaluate next, given the history (steps 1 and 3-4 of Algorithm 1).
 
-A proposer is any object with
+A proposer implements the :class:`Proposer` protocol:
 
 - ``propose(batch, history, size, grid) -> Proposal``: the ``size`` cells of batch ``batch``
   (never one already in ``history``), a deterministic function of its own seed and ``history``
@@ -25,20 +25,26 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Protocol, Sequence, runtime_checkable
+from typing import Any, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 from scipy.stats import qmc
 
 from belief.acquisition import select_cells
+from belief.grid import CandidateSet
 from belief.journal import Record
 from belief.surrogate import GPSurrogate, SurrogateConfig
 
 __all__ = ["Proposal", "Proposer", "RandomProposer", "SobolDesign", "WarmStart", "BOProposer", "Acquisition", "sobol_design",
            "fit_surrogate"]
 
-#: select_cells(model, points (n x d), available (n,) bool, *, q, prediction=(mean, var) (n,)) -> q cell indices
-Acquisition = Callable[..., list[int]]
+class Acquisition(Protocol):
+    """Which q cells to evaluate next: ``(model, points (n x d), available (n,) bool, *, q, prediction)``
+    -> q indices of available cells; ``prediction`` is the model's (mean, var) (n,) at ``points``.
+    belief.acquisition.select_cells (log EI, kriging believer) is the default."""
+
+    def __call__(self, surrogate: GPSurrogate, points: np.ndarray, available: np.ndarray, *, q: int,
+                 prediction: tuple[np.ndarray, np.ndarray] | None) -> list[int]: ...
 
 
 @dataclass(frozen=True)
@@ -55,12 +61,16 @@ class Proposal:
 class Proposer(Protocol):
     """The proposer contract (module docstring)."""
 
-    def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal: ...
+    def propose(self, batch: int, history: Sequence[Record], size: int, grid: CandidateSet) -> Proposal:
+        """The ``size`` cells of batch ``batch``, none in ``history``; a function of the seed and ``history``."""
+        ...
 
-    def config(self) -> dict[str, Any]: ...
+    def config(self) -> dict[str, Any]:
+        """JSON-able options (kind, seed, ...), part of the problem's fingerprint."""
+        ...
 
 
-def sobol_design(grid: Any, n: int, seed: int) -> list[int]:
+def sobol_design(grid: CandidateSet, n: int, seed: int) -> list[int]:
     """n distinct cells nearest to scrambled Sobol points of the latent box (filled from a seeded permutation)."""
     n = min(n, grid.size)
     sob = qmc.Sobol(grid.dim, scramble=True, seed=seed)
@@ -74,7 +84,7 @@ def sobol_design(grid: Any, n: int, seed: int) -> list[int]:
     return cells
 
 
-def fit_surrogate(history: Sequence[Record], grid: Any, config: SurrogateConfig, *,
+def fit_surrogate(history: Sequence[Record], grid: CandidateSet, config: SurrogateConfig, *,
                   impute_failed: bool = False) -> GPSurrogate | None:
     """The GP fitted to the successful evaluations (failed ones at the worst error with
     ``impute_failed``); None with fewer than 2 data."""
@@ -101,7 +111,7 @@ class RandomProposer:
     def __init__(self, seed: int) -> None:
         self.seed = int(seed)
 
-    def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal:
+    def propose(self, batch: int, history: Sequence[Record], size: int, grid: CandidateSet) -> Proposal:
         return Proposal(_unevaluated(np.random.default_rng([self.seed, 1]).permutation(grid.size), history, size))
 
     def config(self) -> dict[str, Any]:
@@ -115,7 +125,7 @@ class SobolDesign:
     def __init__(self, seed: int) -> None:
         self.seed = int(seed)
 
-    def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal:
+    def propose(self, batch: int, history: Sequence[Record], size: int, grid: CandidateSet) -> Proposal:
         order = sobol_design(grid, len(history) + size, self.seed)
         return Proposal(_unevaluated(np.asarray(order), history, size))
 
@@ -130,7 +140,7 @@ class WarmStart:
     def __init__(self, cells: Sequence[int], then: Proposer) -> None:
         self.cells, self.then = [int(c) for c in cells], then
 
-    def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal:
+    def propose(self, batch: int, history: Sequence[Record], size: int, grid: CandidateSet) -> Proposal:
         first = _unevaluated(np.asarray(self.cells), history, size)
         if len(first) == size:
             return Proposal(first)
@@ -145,8 +155,10 @@ class WarmStart:
         return {"kind": "warm", "cells": self.cells, "then": self.then.config()}
 
 
-def _callable_name(fn: Callable[..., Any]) -> str:
-    return f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', type(fn).__name__)}"
+def _callable_name(fn: Acquisition) -> str:
+    """``module.qualname`` of an acquisition function (or of its class, for a callable object)."""
+    named = fn if hasattr(fn, "__qualname__") else type(fn)
+    return f"{named.__module__}.{named.__qualname__}"
 
 
 class BOProposer:
@@ -164,7 +176,7 @@ class BOProposer:
         self.initial = initial if initial is not None else SobolDesign(self.seed)
         self.impute_failed = bool(impute_failed)
 
-    def propose(self, batch: int, history: Sequence[Record], size: int, grid: Any) -> Proposal:
+    def propose(self, batch: int, history: Sequence[Record], size: int, grid: CandidateSet) -> Proposal:
         if batch == 0:
             return self.initial.propose(batch, history, size, grid)
         model = fit_surrogate(history, grid, self.surrogate, impute_failed=self.impute_failed)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 import xarray as xr
@@ -18,14 +18,16 @@ import xarray as xr
 from belief.belief import Belief
 from belief.bounds import AtBound
 from belief.errors import BeliefError
+from belief.journal import Record
 from belief.posterior import credible_region
+from physics.parameters import ParameterSpace
 
 __all__ = ["IdentificationResult", "history_dataset", "FORMAT"]
 
 FORMAT = "tensegrid.identification/2"
 
 
-def history_dataset(records: list[Any], *, latent_names: tuple[str, ...], space: Any,
+def history_dataset(records: Sequence[Record], *, latent_names: tuple[str, ...], space: ParameterSpace,
                     segments: tuple[str, ...] = ("all",)) -> xr.Dataset:
     """Evaluation records -> Dataset with ``z`` (evaluation, latent), ``theta`` (evaluation, parameter),
     ``parts`` (evaluation, segment) the segment errors (NaN unless ok), ``error`` [units of E],

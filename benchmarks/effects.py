@@ -3,7 +3,7 @@
 Per scenario and seed: θ* is drawn uniformly from the inner half of the ±10 % box (±5 % of
 nominal); three flops (1.5 s, 100 Hz, 0.2 mm sensor noise, headings h0, h0 + 120°, h0 + 240°
 with h0 drawn per seed) are simulated with the scenario's effects switched on and not declared;
-``belief.diagnose`` identifies on the first two flops (BO, ``--budget`` evaluations), criticizes
+``criticism.diagnose`` identifies on the first two flops (BO, ``--budget`` evaluations), criticizes
 and, when it finds an effect, adds it and re-identifies; the third flop is held out. A flop from
 the resting face goes over one of its three edges, so a flop 120° away alone is nearly the same
 motion rotated; with ``--held-out actuation`` (the default) the held-out flop also changes 6
@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from belief.diagnose import DiagnoseConfig, diagnose
+from criticism import DiagnoseConfig, diagnose
 from physics import FlopController, ParameterSpace, TrajectoryError, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, model_space
 

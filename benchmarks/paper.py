@@ -13,10 +13,13 @@ time (benchmarks/paper_methods.py lists the methods). Trained decoders (VAE, the
 autoencoder without and with its centre prior, the active subspace, and ``ae-cf-5``: the
 autoencoder trained through a network on the counterfactual target, what θ changes against the
 nominal θ from the same state, embeddings.t6_data) are trained once and cached under
-.cache/tensegrid/paper/. ``ae-cf-bo`` hands over: ``Settings.handoff`` evaluations of BO in ae-cf-5's
-latent grid, then BO in the full 15-D space with them as its initial design (belief.handoff);
-``ae-cf-bo-gn`` stops that BO D + 4 evaluations early and spends them on one Gauss-Newton step
-from its best θ, off the candidate grid (belief.gauss_newton_step).
+.cache/tensegrid/paper/. Every belief method is a preset of the library (belief.presets, sized by
+:class:`Settings`; ``PRESET_OF``): ``random-15`` and ``bo-15`` are ``random`` and ``bo``, ``bo-gn``
+adds the finishing Gauss-Newton step, ``rembo-5`` and the trained decoders run ``latent``,
+``ae-cf-bo`` is ``handoff`` (``Settings.handoff`` evaluations of BO in ae-cf-5's latent grid, then
+BO in the full 15-D space with them as its initial design) and ``ae-cf-bo-gn`` is ``handoff-gn``,
+the library's default: the hand-over stopped D + 4 evaluations early, then one Gauss-Newton step
+from its best θ, off the candidate grid.
 
 ``--source testbed`` takes the problems from the foreign robot (benchmarks/testbed, Bullet): θ* of
 its ``nominal`` data set (seed 0) and of ``--truths`` ``perturbed`` ones (seeds 1..), observed
@@ -49,7 +52,7 @@ from paper_report import summarize  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAINED = ("vae-5", "ae-dyn-5", "ae-dyn-prior-5", "active-5", "ae-cf-5")
-METHODS = ("random-15", "bo-15", "rembo-5", *TRAINED, "ae-cf-bo", "ae-cf-bo-gn", *PEERS)
+METHODS = ("random-15", "bo-15", "bo-gn", "rembo-5", *TRAINED, "ae-cf-bo", "ae-cf-bo-gn", *PEERS)
 #: the Settings fields the trained decoders depend on (the cache key)
 TRAINING_FIELDS = ("duration", "vae_samples", "vae_epochs", "trajectories", "summary", "dyn_epochs", "ae_epochs",
                    "centre_weight")
@@ -123,6 +126,18 @@ def train_decoders(space: Any, settings: Settings, cache: Path, methods: "tuple[
     return decoders
 
 
+def write_pretrained(space: Any, settings: Settings, cache: Path) -> Path:
+    """Train (or reuse the cached) ae-cf-5 with ``settings`` and copy it to the library's shipped decoder."""
+    from embeddings.pretrained import PRETRAINED_T6, pretrained_path
+
+    train_decoders(space, settings, cache, ("ae-cf-5",))
+    target = pretrained_path(PRETRAINED_T6)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text((cache_folder(settings, cache) / "ae-cf-5.json").read_text())
+    print(f"wrote {target}")
+    return target
+
+
 def dynamics_network(space: Any, settings: Settings, cache: Path, folder: Path, *,
                      counterfactual: bool = False) -> tuple[Any, Any, Any]:
     """(network, train, test): the T6 transition set split by trajectory and the network trained on it
@@ -168,72 +183,52 @@ def train_autoencoder(space: Any, dynamics: Any, train: Any, settings: Settings,
         epochs=settings.ae_epochs, batch_size=128, lr=3e-3), progress=True)
 
 
+#: paper method -> (preset, decoder the latent stage uses); the other trained decoders run the "latent" preset
+PRESET_OF = {"random-15": ("random", None), "bo-15": ("bo", None), "bo-gn": ("bo-gn", None),
+             "rembo-5": ("latent", "rembo-5"), "ae-cf-bo": ("handoff", "ae-cf-5"),
+             "ae-cf-bo-gn": ("handoff-gn", "ae-cf-5"), **{name: ("latent", name) for name in TRAINED}}
+
+
+def method_preset(name: str, space: Any, settings: Settings) -> Any:
+    """The belief preset that paper method ``name`` runs, sized by ``settings`` (candidates, latent
+    evaluations of a hand-over, grid points per latent axis)."""
+    from belief.presets import resolve
+
+    preset = resolve(PRESET_OF[name][0])
+    return replace(preset, candidates=settings.candidates, points_per_dim=settings.points_per_dim,
+                   latent=settings.handoff if preset.latent else 0)
+
+
 def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, Any], settings: Settings,
                seed: int) -> Any:
-    """Run ``name`` on the recorded objective; returns the identification result (None for peers)."""
-    from belief.grid import Grid, SobolCandidates
-    from embeddings import REMBO, Identity
+    """Run ``name`` on the recorded objective; returns the identification result (None for peers).
 
-    n_init = settings.n_init or 16
+    Belief methods are presets (belief.presets) with this comparison's sizes; the residual
+    evaluations of a finishing Gauss-Newton step are logged (``Recorder.count_residuals``), those of
+    the verdicts are not."""
+    import warnings
+
+    from belief.presets import minimum_budget, run_preset
+    from embeddings import REMBO
+
     if name == "cma-es":
         return run_cma(objective, space, budget=settings.budget, seed=seed)
     if name == "botorch":
-        return run_botorch(objective, space, budget=settings.budget, seed=seed, n_init=n_init)
-    if name in ("random-15", "bo-15"):
-        decoder = Identity(space)
-        grid = SobolCandidates.for_decoder(decoder, n=settings.candidates, seed=seed)
-        return _identify(objective, decoder, grid, settings, seed, "random" if name == "random-15" else "bo")
-    if name == "ae-cf-bo":
-        return _handoff(objective, decoders["ae-cf-5"], space, settings, seed)
-    if name == "ae-cf-bo-gn":
-        return _handoff_step(objective, decoders["ae-cf-5"], space, settings, seed)
-    decoder = REMBO(space, dim=5, seed=seed) if name == "rembo-5" else decoders[name]
-    return _identify(objective, decoder, Grid.for_decoder(decoder, points_per_dim=settings.points_per_dim),
-                     settings, seed, "bo")
+        return run_botorch(objective, space, budget=settings.budget, seed=seed, n_init=settings.n_init or 16)
+    preset, latent = method_preset(name, space, settings), PRESET_OF[name][1]
+    decoder = REMBO(space, dim=5, seed=seed) if latent == "rembo-5" else decoders.get(latent) if latent else None
+    budget = max(settings.budget, minimum_budget(preset, space.dim))
 
+    def on_stage(stage: str) -> None:
+        objective.count_residuals = stage == "local_step"
 
-def _identify(objective: Any, decoder: Any, grid: Any, settings: Settings, seed: int, method: str, *,
-              budget: int | None = None, posterior: str | None = "likelihood") -> Any:
-    import warnings
-
-    from belief.identify import identify
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return identify(objective, decoder, grid, budget=budget or settings.budget, seed=seed, method=method,
-                        n_init=settings.n_init, progress=False, posterior=posterior)
-
-
-def _handoff(objective: Any, decoder: Any, space: Any, settings: Settings, seed: int) -> Any:
-    """``settings.handoff`` evaluations of BO in ``decoder``'s latent grid, then BO in the full space with
-    them as its initial design (belief.handoff), up to ``settings.budget``."""
-    import warnings
-
-    from belief.grid import Grid
-    from belief.handoff import continue_in
-    from embeddings import Identity
-
-    first = _identify(objective, decoder, Grid.for_decoder(decoder, points_per_dim=settings.points_per_dim),
-                      settings, seed, "bo", budget=settings.handoff, posterior=None)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return continue_in(first, objective, Identity(space), budget=settings.budget, seed=seed,
-                           n=settings.candidates, progress=False)
-
-
-def _handoff_step(objective: Recorder, decoder: Any, space: Any, settings: Settings, seed: int) -> Any:
-    """``ae-cf-bo`` up to ``budget`` - (D + 4) evaluations (at least ``handoff`` + 1), then one counted
-    Gauss-Newton step over all parameters from its best θ; returns the hand-over's result."""
-    from belief.least_squares import gauss_newton_step
-
-    search = max(settings.budget - (space.dim + 4), settings.handoff + 1)
-    result = _handoff(objective, decoder, space, replace(settings, budget=search), seed)
-    objective.count_residuals = True
     try:
-        gauss_newton_step(objective, np.asarray(result.best_theta.values, dtype=float))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return run_preset(objective, preset, budget=budget, seed=seed, decoder=decoder, n_init=settings.n_init,
+                              progress=False, on_stage=on_stage)
     finally:
         objective.count_residuals = False
-    return result
 
 
 def score(name: str, log: list, result: Any, held_out: Any, truth: np.ndarray, space: Any) -> dict[str, Any]:
@@ -333,6 +328,9 @@ def main() -> None:
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results"))
     parser.add_argument("--cache", default=str(ROOT / ".cache" / "tensegrid"))
     parser.add_argument("--summarize", default=None, help="only print the tables of saved rows (a paper.jsonl)")
+    parser.add_argument("--write-pretrained", action="store_true",
+                        help="train ae-cf-5 (cached) and write it as the decoder the library ships for the T6's "
+                             "default box (embeddings/data/t6-ae-cf-5.json, embeddings.pretrained), then stop")
     parser.add_argument("--source", choices=["own", "testbed"], default="own",
                         help="problems from this project's model (default) or from the foreign testbed (Bullet)")
     args = parser.parse_args()
@@ -346,6 +344,9 @@ def main() -> None:
         settings = Settings(**{**asdict(settings), "budget": args.budget})
     space, out = ParameterSpace.t6(), Path(args.out) / ("testbed" if args.source == "testbed" else "")
     out.mkdir(parents=True, exist_ok=True)
+    if args.write_pretrained:
+        write_pretrained(space, settings, Path(args.cache))
+        return
     decoders = train_decoders(space, settings, Path(args.cache), tuple(args.methods))
     if args.source == "testbed":
         for index in range(0 if args.smoke else args.truths + 1):

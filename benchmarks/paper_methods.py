@@ -4,17 +4,17 @@ Every method gets an :class:`Recorder` around the fitting objective E(θ), which
 evaluation (θ, E, seconds since the method started) whatever way the method calls it, so all
 methods are scored the same way: best-so-far θ after n evaluations or t seconds.
 
-* ``random-15``, ``bo-15``: belief.identify with the Identity decoder on Sobol candidates.
-* ``rembo-5``, ``vae-5``, ``ae-dyn-5``, ``ae-dyn-prior-5``, ``active-5``, ``ae-cf-5``: belief.identify (BO) on a grid over
-  the decoder's 5-D latent box.
-* ``ae-cf-bo``: BO in ae-cf-5's latent grid, then in the full space with those evaluations
-  (belief.handoff; benchmarks/paper.py).
-* ``ae-cf-bo-gn``: ``ae-cf-bo`` up to ``budget`` - (D + 4) evaluations, then one damped Gauss-Newton
-  step over all D parameters from its best θ (belief.least_squares.gauss_newton_step: a Jacobian
-  by forward differences and three step lengths, D + 4 evaluations, counted). The 4096
-  candidates in 15-D are coarse (the nearest to a point of the box is about 0.18 of the width
-  away per coordinate); the step leaves them.
-  With a budget below ``handoff`` + D + 5 the step still runs, and the run takes that many.
+* the belief methods are presets of belief.presets (benchmarks/paper.py ``PRESET_OF``):
+  ``random-15``, ``bo-15`` (``random``, ``bo``: the Identity decoder on Sobol candidates),
+  ``bo-gn`` (``bo``, then one Gauss-Newton step), ``rembo-5``, ``vae-5``, ``ae-dyn-5``,
+  ``ae-dyn-prior-5``, ``active-5``, ``ae-cf-5`` (``latent``: BO on a grid over the decoder's 5-D
+  box), ``ae-cf-bo`` (``handoff``: BO in ae-cf-5's latent grid, then in the full space with those
+  evaluations) and ``ae-cf-bo-gn`` (``handoff-gn``, the library's default: ``ae-cf-bo`` up to
+  ``budget`` - (D + 4) evaluations, then one damped Gauss-Newton step over all D parameters from
+  its best θ: a Jacobian by forward differences and three step lengths, D + 4 evaluations,
+  counted). The 4096 candidates in 15-D are coarse (the nearest to a point of the box is about
+  0.18 of the width away per coordinate); the step leaves them. A budget below a preset's
+  ``belief.presets.minimum_budget`` is raised to it.
 * ``cma-es``: the ``cma`` package in the unit cube (x0 = centre, σ0 = 0.3, default population).
 * ``botorch``: a SingleTaskGP on -log E with qLogEI (q = 1), Sobol initial design of the same
   size as identify's, acquisition optimized by L-BFGS-B restarts (optimize_acqf). Torch runs on

@@ -21,7 +21,7 @@ budget); then
 
 Run::
 
-    .venv/bin/python benchmarks/planning.py --seeds 4            # the modest size of docs/measured.md
+    .venv/bin/python benchmarks/planning.py --seeds 4            # the modest size of docs/benchmarks.md
     .venv/bin/python benchmarks/planning.py --seeds 8 --parts plan --levels 0.2 0.5 --out FILE   # risk levels
     .venv/bin/python benchmarks/planning.py --quick              # smoke run (1 seed, tiny)
 """

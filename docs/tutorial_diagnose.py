@@ -26,9 +26,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from belief.criticism import CriticismConfig
-from belief.diagnose import DiagnoseConfig, diagnose
-from belief.diagnose_report import diagnosis_text, write_report
+from criticism import CriticismConfig, DiagnoseConfig, diagnose, diagnosis_text, write_report
 from physics import FlopController, describe_trajectory, simulate
 from physics.effects import ActuatorDelay, GroundSlope, RateLimitedActuation, SensorBias, catalog, model_space
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from embeddings.base import Decoder
+from embeddings.base import Decoder, EncodingDecoder
 from embeddings.errors import EmbeddingError
 from embeddings.identity import Identity
 from embeddings.rembo import REMBO
@@ -27,7 +27,7 @@ _LAZY = {"VAE": "embeddings.vae", "ActiveSubspace": "embeddings.active", "Dynami
          "push_transitions": "embeddings.transitions", "TrainingConfig": "embeddings.networks",
          "T6DataConfig": "embeddings.t6_data", "t6_transitions": "embeddings.t6_data"}
 
-__all__ = ["Decoder", "EmbeddingError", "Identity", "REMBO", "decoder_from_config", "load_decoder",
+__all__ = ["Decoder", "EncodingDecoder", "EmbeddingError", "Identity", "REMBO", "decoder_from_config", "load_decoder",
            "register_decoder", "registered_kinds", *_LAZY]
 
 

@@ -17,12 +17,12 @@ grid in z is a grid along known directions and every decoded θ is a plain linea
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 import torch
 
-from embeddings.base import Decoder
+from embeddings.base import EncodingDecoder
 from embeddings.dynamics import DynamicsNetwork
 from embeddings.errors import EmbeddingError
 from embeddings.registry import check_config, register_decoder, require_keys
@@ -33,7 +33,7 @@ __all__ = ["ActiveSubspace"]
 
 
 @register_decoder("active")
-class ActiveSubspace(Decoder):
+class ActiveSubspace(EncodingDecoder):
     """Linear decoder z (``n x d``) -> θ along the top-``d`` eigenvectors of the dynamics' sensitivity.
 
     Build it with :meth:`fit` (from a dynamics network and its transitions) or from a basis ``W``.
@@ -69,7 +69,7 @@ class ActiveSubspace(Decoder):
         return cls(space, W, explained=float(values[order[:dim]].sum() / values.sum()))
 
     @classmethod
-    def from_config(cls, config: Any, space: ParameterSpace) -> "ActiveSubspace":
+    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> "ActiveSubspace":
         """The decoder whose ``config()`` equals ``config``."""
         require_keys(config, ("kind", "basis", "explained", "names", "lower", "upper"), kind="active")
         decoder = cls(space, np.asarray(config["basis"], dtype=float), explained=config["explained"])

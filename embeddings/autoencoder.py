@@ -25,12 +25,13 @@ on each side. Search then runs BO over a grid in that box and decodes with the d
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 import torch
 
 from embeddings.dynamics import DynamicsNetwork
+from embeddings.base import EncodingDecoder
 from embeddings.errors import EmbeddingError
 from embeddings.networks import TrainingConfig, mlp, pack_weights, seeded, train, unpack_weights
 from embeddings.registry import register_decoder
@@ -42,7 +43,7 @@ __all__ = ["DynamicsAutoencoder"]
 
 
 @register_decoder("ae-dyn")
-class DynamicsAutoencoder(TrainedDecoder):
+class DynamicsAutoencoder(TrainedDecoder, EncodingDecoder):
     """Decoder α -> θ of an autoencoder trained on the dynamics loss (module docstring).
 
     ``dim``: latent d (paper, T6: 5; push toy: 1); ``hidden``: width of the encoder's and the
@@ -79,7 +80,7 @@ class DynamicsAutoencoder(TrainedDecoder):
     def extra_state(self) -> dict[str, Any]:
         return {"encoder": pack_weights(self.encoder_net)}
 
-    def load_extra_state(self, extra: Any) -> None:
+    def load_extra_state(self, extra: Mapping[str, Any]) -> None:
         if "encoder" in extra:
             unpack_weights(self.encoder_net, extra["encoder"])
 

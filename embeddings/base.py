@@ -4,8 +4,14 @@ A decoder has ``space`` (the :class:`~physics.parameters.ParameterSpace`, dimens
 ``dim`` (the latent dimension ``d``), ``bounds`` (``d x 2`` array of the latent box
 ``[lower, upper]`` per latent coordinate) and ``decode(z)`` mapping ``n x d`` latent points to
 ``n x D`` parameter vectors that always lie inside ``[space.lower, space.upper]``. ``config()``
-returns a JSON-able description used to fingerprint an identification problem (journal);
-``save(path)`` writes it as JSON and :func:`embeddings.load_decoder` rebuilds the decoder from it.
+returns a JSON-able description used to fingerprint an identification problem (journal), and
+the classmethod ``from_config(config, space)`` rebuilds the decoder from it; ``save(path)`` writes
+:meth:`Decoder.record` as JSON and :func:`embeddings.load_decoder` reads it back (``from_config``,
+then :meth:`Decoder.restore` for state beyond the configuration, e.g. a trained encoder).
+
+:class:`EncodingDecoder` is the optional part of the contract: decoders that also map θ back to
+the latent box (``encode``), which a hand-over of evaluations to another latent space needs
+(belief.handoff). Identity, ActiveSubspace and the trained autoencoders have it; REMBO does not.
 """
 from __future__ import annotations
 
@@ -13,14 +19,16 @@ import abc
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping, TypeVar
 
 import numpy as np
 
 from embeddings.errors import EmbeddingError
 from physics.parameters import ParameterSpace
 
-__all__ = ["Decoder", "write_json"]
+__all__ = ["Decoder", "EncodingDecoder", "write_json"]
+
+_Self = TypeVar("_Self", bound="Decoder")
 
 
 def write_json(path: "str | os.PathLike[str]", record: Any) -> Path:
@@ -56,6 +64,11 @@ class Decoder(abc.ABC):
     def config(self) -> dict[str, Any]:
         """JSON-able description (kind and options) that identifies this decoder exactly."""
 
+    @classmethod
+    @abc.abstractmethod
+    def from_config(cls: type[_Self], config: Mapping[str, Any], space: ParameterSpace) -> _Self:
+        """The decoder on ``space`` whose ``config()`` equals ``config`` (EmbeddingError otherwise)."""
+
     def decode(self, z: "np.ndarray") -> np.ndarray:
         """θ = decoder(z): ``n x d`` -> ``n x D`` (a single ``d`` vector gives a ``D`` vector).
 
@@ -86,9 +99,24 @@ class Decoder(abc.ABC):
         """What :meth:`save` writes: ``{"decoder": config()}`` (trained decoders add their training state)."""
         return {"decoder": self.config()}
 
+    def restore(self, record: Mapping[str, Any]) -> None:
+        """Restore what :meth:`record` holds beyond ``config()`` after a load; nothing by default."""
+
     def save(self, path: "str | os.PathLike[str]") -> Path:
         """Write :meth:`record` as JSON (atomically); ``embeddings.load_decoder(path, space)`` reads it back."""
         return write_json(path, self.record())
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.config()})"
+
+
+class EncodingDecoder(Decoder):
+    """A decoder that also encodes: θ (``n x D`` or ``D``) -> z (``n x d`` or ``d``).
+
+    For a decoder without reduction (Identity) decode(encode(θ)) = θ; for a reducing one, encode
+    gives the latent point whose decoding is near θ (a projection, or an encoder network's mean).
+    """
+
+    @abc.abstractmethod
+    def encode(self, theta: np.ndarray) -> np.ndarray:
+        """z for θ: ``n x D`` -> ``n x d`` (a single ``D`` vector gives a ``d`` vector)."""

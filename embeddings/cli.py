@@ -20,7 +20,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from embeddings.trained import TrainedDecoder
+    from embeddings.transitions import Transitions
+    from physics.parameters import ParameterSpace
 
 __all__ = ["register_train_embedding", "run_train_embedding"]
 
@@ -48,14 +53,14 @@ def register_train_embedding(subparsers: "argparse._SubParsersAction[Any]") -> N
     p.set_defaults(func=run_train_embedding)
 
 
-def _space(args: argparse.Namespace) -> Any:
+def _space(args: argparse.Namespace) -> "ParameterSpace":
     from physics.parameters import ParameterSpace
     from physics.push import push_space
 
     return push_space() if args.toy == "push" else ParameterSpace.t6()
 
 
-def _transitions(args: argparse.Namespace, space: Any) -> Any:
+def _transitions(args: argparse.Namespace, space: "ParameterSpace") -> "Transitions":
     from embeddings.t6_data import DEFAULT_CACHE, T6DataConfig, t6_transitions
     from embeddings.transitions import push_transitions
 
@@ -71,7 +76,7 @@ def _transitions(args: argparse.Namespace, space: Any) -> Any:
                           progress=not args.no_progress)
 
 
-def _train(args: argparse.Namespace) -> Any:
+def _train(args: argparse.Namespace) -> "TrainedDecoder":
     from embeddings.autoencoder import DynamicsAutoencoder
     from embeddings.dynamics import DynamicsNetwork
     from embeddings.networks import TrainingConfig

@@ -5,7 +5,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from embeddings.base import Decoder
+from embeddings.base import EncodingDecoder
 from embeddings.registry import check_config, register_decoder, require_keys
 from physics.parameters import ParameterSpace
 
@@ -13,7 +13,7 @@ __all__ = ["Identity"]
 
 
 @register_decoder("identity")
-class Identity(Decoder):
+class Identity(EncodingDecoder):
     """z ∈ [0, 1]^D  ->  θ = lower + z ⊙ (upper - lower), ``n x D`` -> ``n x D`` (no reduction; d = D)."""
 
     def __init__(self, space: ParameterSpace) -> None:

@@ -23,7 +23,7 @@ from physics.parameters import ParameterSpace
 
 __all__ = ["register_decoder", "decoder_from_config", "load_decoder", "registered_kinds", "require_keys", "check_config"]
 
-_D = TypeVar("_D", bound=type)
+_D = TypeVar("_D", bound=type[Decoder])
 
 _REGISTRY: dict[str, type[Decoder]] = {}
 #: built-in kinds whose modules import torch: loaded when a configuration names them
@@ -33,17 +33,20 @@ _BUILT_IN = {"vae": "embeddings.vae", "ae-dyn": "embeddings.autoencoder", "activ
 def register_decoder(kind: str) -> Callable[[_D], _D]:
     """Class decorator: ``decoder_from_config`` rebuilds configurations of ``kind`` with ``cls.from_config``.
 
-    The class must be a :class:`Decoder` with a classmethod ``from_config(config, space)``.
-    Registering another class under a taken kind raises :class:`EmbeddingError` (registering the
+    The class must be a concrete :class:`Decoder` (``from_config(config, space)`` is part of that
+    contract). Registering another class under a taken kind raises :class:`EmbeddingError` (registering the
     same class again is a no-op).
     """
     if not isinstance(kind, str) or not kind:
         raise EmbeddingError(f"register_decoder needs a non-empty string kind (the 'kind' of config()), got {kind!r}.")
 
     def decorate(cls: _D) -> _D:
-        if not (isinstance(cls, type) and issubclass(cls, Decoder) and callable(getattr(cls, "from_config", None))):
-            raise EmbeddingError(f"register_decoder({kind!r}) decorates a Decoder subclass with a classmethod "
-                                 f"from_config(config, space), got {cls!r}; add from_config to it.")
+        if not (isinstance(cls, type) and issubclass(cls, Decoder)):
+            raise EmbeddingError(f"register_decoder({kind!r}) decorates a Decoder subclass, got {cls!r}.")
+        if cls.__abstractmethods__:
+            raise EmbeddingError(f"register_decoder({kind!r}): {cls.__qualname__} leaves "
+                                 f"{sorted(cls.__abstractmethods__)} of the Decoder contract abstract; define them "
+                                 "(from_config(config, space) rebuilds a saved decoder).")
         known = _REGISTRY.get(kind)
         if known is not None and known is not cls:
             raise EmbeddingError(f"decoder kind {kind!r} is already registered to {known.__qualname__}; "
@@ -133,7 +136,5 @@ def load_decoder(path: "str | os.PathLike[str]", space: ParameterSpace) -> Decod
     if not isinstance(record, dict) or "decoder" not in record:
         raise EmbeddingError(f"{path} is not a saved decoder (no 'decoder' entry); write it with decoder.save(path).")
     decoder = decoder_from_config(record["decoder"], space)
-    restore = getattr(decoder, "restore", None)
-    if callable(restore):
-        restore(record)
+    decoder.restore(record)
     return decoder

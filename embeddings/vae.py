@@ -14,11 +14,12 @@ and folds the rest towards the centre, which is why the paper's dynamics-aware a
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 import torch
 
+from embeddings.base import EncodingDecoder
 from embeddings.errors import EmbeddingError
 from embeddings.networks import TrainingConfig, mlp, pack_weights, seeded, train, unpack_weights
 from embeddings.registry import register_decoder
@@ -29,7 +30,7 @@ __all__ = ["VAE"]
 
 
 @register_decoder("vae")
-class VAE(TrainedDecoder):
+class VAE(TrainedDecoder, EncodingDecoder):
     """VAE decoder α ∈ [-latent_scale, latent_scale]^d -> θ; ``fit`` trains it on θ uniform in the box.
 
     ``dim``: latent d (paper: 5); ``hidden``: width of the one hidden layer (paper: 400);
@@ -63,7 +64,7 @@ class VAE(TrainedDecoder):
     def extra_state(self) -> dict[str, Any]:
         return {"encoder": pack_weights(self.encoder_net)}
 
-    def load_extra_state(self, extra: Any) -> None:
+    def load_extra_state(self, extra: Mapping[str, Any]) -> None:
         if "encoder" in extra:
             unpack_weights(self.encoder_net, extra["encoder"])
 

@@ -20,12 +20,13 @@ if TYPE_CHECKING:
     from physics.controllers import Controller, FlopController, FlopPlan, HoldController, ReplayController
     from physics.error import TrajectoryError
     from physics.errors import (
-        ControllerError, ParameterError, PhysicsError, PoolError, TensegridError, TrajectoryFormatError,
+        ContractError, ControllerError, NoResidualsError, ParameterError, PhysicsError, PoolError, TensegridError,
+        TrajectoryFormatError,
     )
     from physics.geometry import (
         CABLE_NAMES, CABLE_NODES, ROD_NODES, closed_faces, node_positions, rod_mass_properties,
     )
-    from physics.objective import STATUSES, BatchResult, Objective
+    from physics.objective import STATUSES, BatchResult, FunctionObjective, Objective, as_objective
     from physics.parameters import T6_NOMINAL, Parameter, ParameterSpace
     from physics.pool import DaskPool
     from physics.predictor import ObservedStates, predict, reconstruct_actuators
@@ -38,7 +39,7 @@ if TYPE_CHECKING:
 
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "physics.errors": ("TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError",
-                       "ControllerError", "PoolError"),
+                       "ControllerError", "PoolError", "ContractError", "NoResidualsError"),
     "physics.parameters": ("Parameter", "ParameterSpace", "T6_NOMINAL"),
     "physics.geometry": ("CABLE_NAMES", "CABLE_NODES", "ROD_NODES", "closed_faces", "node_positions",
                          "rod_mass_properties"),
@@ -49,7 +50,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
                            "describe_trajectory"),
     "physics.simulate": ("simulate", "settled_model"),
     "physics.predictor": ("ObservedStates", "predict", "reconstruct_actuators"),
-    "physics.objective": ("STATUSES", "BatchResult", "Objective"),
+    "physics.objective": ("STATUSES", "BatchResult", "Objective", "FunctionObjective", "as_objective"),
     "physics.pool": ("DaskPool",),
     "physics.error": ("TrajectoryError",),
     "physics.push": ("PushError", "generate_push_data", "push_space", "simulate_push"),

@@ -13,6 +13,8 @@ __all__ = [
     "PhysicsError",
     "ControllerError",
     "PoolError",
+    "ContractError",
+    "NoResidualsError",
 ]
 
 
@@ -38,3 +40,13 @@ class ControllerError(TensegridError, ValueError):
 
 class PoolError(TensegridError, RuntimeError):
     """A pool of worker processes could not be started or reached (physics.pool)."""
+
+
+class ContractError(TensegridError, TypeError):
+    """An implementation of a contract (an objective, a decoder, ...) returned or lacks something the
+    contract requires: a bug in that implementation, raised at once, never recorded as a status."""
+
+
+class NoResidualsError(TensegridError, NotImplementedError):
+    """The objective gives E(θ) but no residual vectors (a plain function θ -> E): what needs them
+    (the "ess" noise rule, least-squares steps, model criticism) falls back or is skipped."""

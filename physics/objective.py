@@ -22,14 +22,25 @@ model misses. The contract (:class:`Objective`, a structural ``typing.Protocol``
 - ``n_observations``: K, the number of scalar residuals; ``noise_var``: σ² per residual when
   known, else None; ``fingerprint()``: a JSON-able dict naming data and settings (with segments).
 
+An objective that has no residual vectors raises :class:`~physics.errors.NoResidualsError` from
+``residuals`` and ``residuals_batch``; callers then fall back (belief's noise rule) or skip
+(least-squares steps).
+
 Statuses (:data:`STATUSES`), one vocabulary for batches, journals and histories: ``"ok"``;
 ``"diverged"`` = the simulation raised :class:`~physics.errors.PhysicsError`; ``"failed"`` = the
-objective returned NaN or inf, or raised another tensegrid error.
+objective returned NaN or inf, or raised another tensegrid error. A
+:class:`~physics.errors.ContractError` (an implementation returned what the contract forbids) is
+a bug and propagates.
+
+A plain function θ -> E is not an objective; :func:`as_objective` wraps it once in
+:class:`FunctionObjective` (one segment ``"all"``, no residuals), so that consumers see only the
+contract.
 
 This module imports numpy only (no simulator), so ``belief`` can type against it cheaply.
 """
 from __future__ import annotations
 
+import concurrent.futures as cf
 import math
 import operator
 import time
@@ -38,12 +49,13 @@ from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol, Sequence, r
 
 import numpy as np
 
-from physics.errors import ParameterError, PhysicsError, TensegridError
+from physics.errors import ContractError, NoResidualsError, ParameterError, PhysicsError, TensegridError
 
 if TYPE_CHECKING:
     from physics.parameters import ParameterSpace
 
-__all__ = ["STATUSES", "BatchResult", "Objective", "OnResult", "Row", "evaluate_row", "residual_row", "check_windows"]
+__all__ = ["STATUSES", "BatchResult", "Objective", "OnResult", "Row", "evaluate_row", "residual_row", "check_windows",
+           "ObjectiveFunction", "FunctionObjective", "as_objective"]
 
 STATUSES: tuple[str, ...] = ("ok", "diverged", "failed")
 
@@ -148,7 +160,8 @@ def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:
 
     Returns (E, "ok", seconds, "", parts (S,)) with E = parts.sum(); (NaN, "diverged", ...) on
     :class:`PhysicsError`; (NaN, "failed", ...) on another :class:`TensegridError` or a NaN/inf
-    part. Parts are NaN unless ok. Other exceptions (bugs) propagate.
+    part. Parts are NaN unless ok. Bugs propagate: a :class:`ContractError` and exceptions that
+    are not tensegrid errors.
     """
     n_segments = len(objective.segments)
     start = time.perf_counter()
@@ -156,6 +169,8 @@ def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:
         parts = np.asarray(objective.evaluate_parts(theta), dtype=float)
     except PhysicsError as exc:
         return math.nan, "diverged", time.perf_counter() - start, str(exc), np.full(n_segments, np.nan)
+    except ContractError:
+        raise
     except TensegridError as exc:
         return (math.nan, "failed", time.perf_counter() - start, f"{type(exc).__name__}: {exc}",
                 np.full(n_segments, np.nan))
@@ -168,9 +183,12 @@ def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:
 
 def residual_row(objective: "Objective", theta: np.ndarray) -> list[np.ndarray] | None:
     """``objective.residuals(theta)`` (S arrays (T_s, m)), or None when the simulation diverged
-    (:class:`PhysicsError`), another tensegrid error was raised, or a residual is inf. Bugs propagate."""
+    (:class:`PhysicsError`), another tensegrid error was raised, or a residual is inf.
+    :class:`NoResidualsError` (the objective has none at any θ) and bugs propagate."""
     try:
         out = [np.asarray(r, dtype=float) for r in objective.residuals(theta)]
+    except (NoResidualsError, ContractError):
+        raise
     except TensegridError:
         return None
     return None if any(np.isinf(r).any() for r in out) else out
@@ -214,13 +232,165 @@ class Objective(Protocol):
         ...
 
     def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
-        """Residual vectors x_obs - x_pred per segment: S arrays (T_s, m), time order, NaN rows not compared."""
+        """Residual vectors x_obs - x_pred per segment: S arrays (T_s, m), time order, NaN rows not
+        compared; raises NoResidualsError when the objective has none."""
         ...
 
     def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
-        """``residuals`` at each row of θs (n, D), None where the evaluation was not ok."""
+        """``residuals`` at each row of θs (n, D), None where the evaluation was not ok; raises
+        NoResidualsError when the objective has none."""
         ...
 
     def fingerprint(self) -> dict[str, Any]:
         """JSON-able identity of data and settings, including ``segments``."""
         ...
+
+
+#: A plain objective function: θ (D,) -> E(θ) (float); :func:`as_objective` wraps it.
+ObjectiveFunction = Callable[[np.ndarray], float]
+
+#: The members of :class:`Objective` that a plain function does not have.
+_CONTRACT_MEMBERS = ("segments", "n_observations", "noise_var", "evaluate_parts", "evaluate_batch", "residuals",
+                     "residuals_batch", "fingerprint")
+
+
+def _function_name(fn: Callable[..., object]) -> str:
+    """``module.qualname`` of a function or of a callable object's class (a label, for fingerprints)."""
+    named = fn if hasattr(fn, "__qualname__") else type(fn)
+    return f"{getattr(named, '__module__', '?')}.{getattr(named, '__qualname__', type(fn).__name__)}"
+
+
+class FunctionObjective:
+    """A plain function θ (D,) -> E(θ) as an :class:`Objective` with one segment ``"all"``.
+
+    parts = (E(θ),), so E = parts.sum(); ``n_observations`` (K, default 1) and ``noise_var`` (σ²,
+    default unknown) are what the caller declares, since a function reports neither.
+    ``residuals``/``residuals_batch`` raise :class:`NoResidualsError`: the function gives E only.
+    ``evaluate_batch`` runs :func:`evaluate_row` per row, on ``workers`` threads when > 1 (useful
+    when the function releases the GIL or waits on I/O), streaming rows in completion order.
+    A return value that is not a scalar raises :class:`ContractError`.
+    """
+
+    def __init__(self, fn: ObjectiveFunction, space: "ParameterSpace", *, workers: int = 1, n_observations: int = 1,
+                 noise_var: float | None = None) -> None:
+        if not callable(fn):
+            raise ContractError(f"FunctionObjective wraps a function θ -> E(θ), got {type(fn).__name__}.")
+        for name, value in (("workers", workers), ("n_observations", n_observations)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ParameterError(f"FunctionObjective {name} must be an integer >= 1, got {value!r}.")
+        if noise_var is not None and not (math.isfinite(noise_var) and noise_var > 0):
+            raise ParameterError(f"FunctionObjective noise_var must be a positive σ² (units of E) or None, got "
+                                 f"{noise_var!r}.")
+        self.fn, self.space, self.workers = fn, space, int(workers)
+        self._n_observations, self._noise_var = int(n_observations), noise_var
+        self.name = _function_name(fn)
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        return ("all",)
+
+    @property
+    def n_observations(self) -> int:
+        return self._n_observations
+
+    @property
+    def noise_var(self) -> float | None:
+        return self._noise_var
+
+    def __call__(self, theta: np.ndarray) -> float:
+        """E(θ) for θ (D,), as returned by the function (NaN and inf pass through)."""
+        value = self.fn(np.asarray(theta, dtype=float))
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ContractError(f"the objective function {self.name} must return a scalar error E(θ) (float), got "
+                                f"{type(value).__name__}: {value!r}.") from None
+        if arr.shape != ():
+            raise ContractError(f"the objective function {self.name} must return a scalar error, got an array of shape "
+                                f"{arr.shape}; return its sum, or implement physics.objective.Objective to report "
+                                "segment errors.")
+        return float(arr)
+
+    def evaluate_parts(self, theta: np.ndarray) -> np.ndarray:
+        """(E(θ),), shape (1,)."""
+        return np.array([self(theta)])
+
+    def _rows(self, thetas: np.ndarray) -> np.ndarray:
+        arr = np.atleast_2d(np.asarray(thetas, dtype=float))
+        if arr.ndim != 2 or arr.shape[1] != self.space.dim:
+            raise ParameterError(f"thetas must have shape (n, {self.space.dim}) in the order of space.names, got "
+                                 f"{np.shape(thetas)}.")
+        return arr
+
+    def evaluate_batch(self, thetas: np.ndarray, *, on_result: OnResult | None = None) -> BatchResult:
+        """E at each row of θs (n, D) via :func:`evaluate_row`; on_result(k, ...) per row as it finishes."""
+        arr = self._rows(thetas)
+        rows: dict[int, Row] = {}
+
+        def done(k: int, row: Row) -> None:
+            rows[k] = row
+            if on_result is not None:
+                on_result(k, *row)
+
+        if self.workers == 1 or len(arr) < 2:
+            for k, theta in enumerate(arr):
+                done(k, evaluate_row(self, theta))
+        else:
+            with cf.ThreadPoolExecutor(max_workers=min(self.workers, len(arr))) as pool:
+                futures = {pool.submit(evaluate_row, self, theta): k for k, theta in enumerate(arr)}
+                for future in cf.as_completed(futures):
+                    done(futures[future], future.result())
+        return BatchResult.from_rows([rows[k] for k in range(len(arr))], 1)
+
+    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
+        """Raises :class:`NoResidualsError`: a plain function gives E(θ) only."""
+        raise NoResidualsError(f"the objective function {self.name} gives E(θ) only, no residual vectors; implement "
+                               "physics.objective.Objective (residuals per segment) for the 'ess' noise rule, "
+                               "least-squares steps and model criticism.")
+
+    def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
+        """Raises :class:`NoResidualsError` (see :meth:`residuals`)."""
+        return [self.residuals(theta) for theta in self._rows(thetas)]
+
+    def fingerprint(self) -> dict[str, Any]:
+        """K, σ² and the segment. Not the function: what it computes cannot be hashed, and a journal
+        must accept the same problem resumed through another function (a wrapper, a fixed crash)."""
+        return {"kind": "function", "n_observations": self._n_observations, "noise_var": self._noise_var,
+                "segments": list(self.segments)}
+
+    def __repr__(self) -> str:
+        return f"FunctionObjective({self.name}, D={self.space.dim}, workers={self.workers})"
+
+
+def _same_space(a: "ParameterSpace", b: "ParameterSpace") -> bool:
+    return tuple(a.names) == tuple(b.names) and bool(np.allclose(a.lower, b.lower) and np.allclose(a.upper, b.upper))
+
+
+def as_objective(objective: "Objective | ObjectiveFunction", space: "ParameterSpace | None" = None, *,
+                 workers: int = 1) -> Objective:
+    """``objective`` itself when it implements :class:`Objective`, else a plain function wrapped in
+    :class:`FunctionObjective` on ``space`` (default: the function's ``.space`` attribute) with
+    ``workers`` threads per batch.
+
+    Raises :class:`ContractError` for something neither callable nor an Objective, or an object
+    with part of the contract (it would silently lose its segments); :class:`ParameterError` when
+    a plain function comes without a space, or ``space`` differs from the objective's own.
+    """
+    if isinstance(objective, Objective):
+        if space is not None and not _same_space(space, objective.space):
+            raise ParameterError(f"space {list(space.names)} (or its bounds) differs from the objective's own "
+                                 f"{list(objective.space.names)}; leave space unset for an Objective.")
+        return objective
+    if not callable(objective):
+        raise ContractError(f"objective must be a physics.objective.Objective or a function θ -> E(θ) (float), got "
+                            f"{type(objective).__name__}.")
+    present = [name for name in _CONTRACT_MEMBERS if hasattr(objective, name)]
+    if present:
+        missing = [name for name in _CONTRACT_MEMBERS + ("space",) if not hasattr(objective, name)]
+        raise ContractError(f"{type(objective).__name__} has {present} of the Objective contract but lacks {missing}; "
+                            "implement all of physics.objective.Objective, or pass a plain function θ -> E.")
+    found = space if space is not None else getattr(objective, "space", None)
+    if found is None:
+        raise ParameterError("a plain objective function needs its parameter space: pass space=... (a "
+                             "physics.ParameterSpace) or give the function a .space attribute.")
+    return FunctionObjective(objective, found, workers=workers)

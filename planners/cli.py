@@ -18,9 +18,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from belief.belief import Belief
+    from planners.robust import PlanStep
 
 __all__ = ["register_plan", "register_probe", "read_truth"]
 
@@ -48,7 +52,7 @@ def read_truth(value: str) -> np.ndarray:
     return np.asarray(ds["theta"].sel(parameter=list(space.names)).values, dtype=float)
 
 
-def _load_belief(path: str, group: str | None) -> Any:
+def _load_belief(path: str, group: str | None) -> "Belief":
     """The Belief in ``path`` (root, or ``group``; a result.nc of ``tensegrid identify`` holds it in "belief")."""
     from belief.belief import Belief
     from belief.errors import BeliefError
@@ -102,7 +106,7 @@ def register_probe(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.set_defaults(func=run_probe)
 
 
-def _step_json(step: Any) -> dict[str, Any]:
+def _step_json(step: "PlanStep") -> dict[str, Any]:
     return {"action": step.choice.action.as_dict(), "label": step.choice.action.label,
             "scores": step.choice.scores.tolist(), "candidates": [a.label for a in step.choice.rollouts.actions],
             "status": step.outcome.status, "face": list(step.outcome.face), "after": step.after.tolist(),

@@ -31,8 +31,11 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from tqdm.auto import tqdm
 
+from belief.belief import Belief
+from belief.sampling import SamplingBelief
 from physics.parameters import ParameterSpace
 from physics.pool import DaskPool
+from physics.tensegrity import T6Model
 from planners.actions import FlopAction, candidate_actions
 from planners.errors import GoalError, LevelError, PlannerError
 from planners.learning import FlopEvidence
@@ -47,8 +50,8 @@ OBJECTIVES = ("expected", "cvar", "success")
 
 
 class PointBelief:
-    """All mass on one θ (``D``), with the sampling interface of :class:`belief.Belief`: the nominal
-    plan is ``PointBelief(space.nominal)``, the MAP plan ``PointBelief(belief.map)``."""
+    """All mass on one θ (``D``), a :class:`~belief.sampling.SamplingBelief` like :class:`belief.Belief`:
+    the nominal plan is ``PointBelief(space.nominal)``, the MAP plan ``PointBelief(belief.map)``."""
 
     def __init__(self, theta: np.ndarray, space: ParameterSpace | None = None) -> None:
         self.space = space or ParameterSpace.t6()
@@ -56,7 +59,7 @@ class PointBelief:
         self.p = np.ones(1)
         self.n_cells = 1
 
-    def sample(self, n: int, *, seed: Any = None) -> np.ndarray:
+    def sample(self, n: int, *, seed: "int | np.random.Generator | None" = None) -> np.ndarray:
         """n copies of θ, ``n x D``."""
         return np.repeat(self.theta, int(n), axis=0)
 
@@ -168,18 +171,19 @@ class FlopChoice:
     values: np.ndarray | None = field(default=None, repr=False)
 
 
-def _start(start: Any) -> RobotStart:
+def _start(start: "RobotStart | T6Model | None") -> RobotStart:
     if start is None:
         return RobotStart.settled()
     if isinstance(start, RobotStart):
         return start
-    if hasattr(start, "node_positions") and hasattr(start, "rest_length_readings"):
+    if isinstance(start, T6Model):
         return RobotStart.from_model(start)
     raise PlannerError(f"start must be a RobotStart, a T6Model or None (the nominal robot at rest), got "
                        f"{type(start).__name__}.")
 
 
-def plan_flop(belief: Any, start: Any, goal: Sequence[float], *, actions: Sequence[FlopAction] | None = None,
+def plan_flop(belief: SamplingBelief, start: "RobotStart | T6Model | None", goal: Sequence[float], *,
+              actions: Sequence[FlopAction] | None = None,
               objective: str = "cvar", level: float = 0.5, samples: int = 16, seed: int = 0,
               threshold: float = 0.2, radius: float = 0.5, max_distance: float = 20.0, horizon: int = 2,
               pool: DaskPool | None = None, n_workers: int = 0, progress: bool = False) -> FlopChoice:
@@ -239,7 +243,7 @@ class GoalRun:
         return float(np.linalg.norm(self.path[-1] - self.goal))
 
 
-def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal: Sequence[float], *,
+def plan_to_goal(belief: SamplingBelief, robot: "SimulatedRobot | np.ndarray | None", goal: Sequence[float], *,
                  radius: float = 0.5, max_steps: int = 8, objective: str = "cvar", level: float = 0.5,
                  samples: int = 16, seed: int = 0, threshold: float = 0.2, horizon: int = 2,
                  learn: bool = True, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
@@ -260,7 +264,7 @@ def plan_to_goal(belief: Any, robot: "SimulatedRobot | np.ndarray | None", goal:
     origin = robot.centre
     g = check_goal(goal, origin, radius=radius, max_distance=20.0)
     evidence = FlopEvidence(belief, cells=cells, seed=seed, sigma=sigma) \
-        if learn and hasattr(belief, "sample_cells") else None
+        if learn and isinstance(belief, Belief) else None
     pool, own = pool_for(pool, n_workers)
     steps: list[PlanStep] = []
     try:

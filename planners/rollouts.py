@@ -26,6 +26,7 @@ from typing import Any, Sequence
 import numpy as np
 from tqdm.auto import tqdm
 
+from belief.sampling import SamplingBelief
 from physics.controllers import FlopController, FlopPlan, select_cables
 from physics.errors import PhysicsError
 from physics.geometry import rod_poses_from_nodes
@@ -114,7 +115,7 @@ class _PlannedFlop(FlopController):
                          period=c.period, flops=1)
         self._fixed = fixed
 
-    def plan(self, model: Any) -> FlopPlan:
+    def plan(self, model: T6Model) -> FlopPlan:
         return self._fixed
 
 
@@ -276,13 +277,14 @@ def rollouts(actions: Sequence[FlopAction], start: RobotStart, thetas: np.ndarra
     return RolloutSet(acts, th, outcomes, plans, start)
 
 
-def check_belief(belief: Any) -> None:
-    """Raise if ``belief`` is empty (no cells, no mass) or from another robot (not the T6's 15 parameters)."""
-    space = getattr(belief, "space", None)
-    p = np.asarray(getattr(belief, "p", np.empty(0)), dtype=float)
-    if not isinstance(space, ParameterSpace):
-        raise PlannerError(f"belief must be a belief.Belief (or have .space, .p, .theta, .sample), got "
-                           f"{type(belief).__name__}; load one with Belief.load(path).")
+def check_belief(belief: SamplingBelief) -> None:
+    """Raise if ``belief`` is not a :class:`~belief.sampling.SamplingBelief`, is empty (no cells, no
+    mass) or is from another robot (not the T6's 15 parameters)."""
+    if not isinstance(belief, SamplingBelief) or not isinstance(belief.space, ParameterSpace):
+        raise PlannerError(f"belief must be a belief.Belief or another belief.sampling.SamplingBelief (.space, .theta, "
+                           f".p, .sample), got {type(belief).__name__}; load one with Belief.load(path).")
+    space = belief.space
+    p = np.asarray(belief.p, dtype=float)
     t6 = ParameterSpace.t6()
     if tuple(space.names) != tuple(t6.names):
         raise RobotMismatchError(f"the belief is over {space.dim} parameters {list(space.names)[:5]}..., but the planner "
@@ -293,7 +295,7 @@ def check_belief(belief: Any) -> None:
                                "it holds nothing to plan with: run an identification (tensegrid identify) first.")
 
 
-def sample_rollouts(belief: Any, actions: Sequence[FlopAction], start: RobotStart, *, samples: int, seed: int,
+def sample_rollouts(belief: SamplingBelief, actions: Sequence[FlopAction], start: RobotStart, *, samples: int, seed: int,
                     **kw: Any) -> RolloutSet:
     """:func:`rollouts` under θ = ``belief.sample(samples, seed=seed)`` (K = samples x 15)."""
     check_belief(belief)

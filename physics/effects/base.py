@@ -19,6 +19,7 @@ A model built from the T6 and effects e_1..e_m has the parameter space
 """
 from __future__ import annotations
 
+import abc
 from dataclasses import dataclass, field
 from typing import Callable, ClassVar, Mapping, Sequence
 
@@ -61,25 +62,28 @@ class ModelSetup:
                    actuator=MotorActuator(params, gains, dt), gains=gains, dt=float(dt))
 
 
-class Effect:
-    """A physical effect: parameters and a hook that edits a :class:`ModelSetup`.
+class Effect(abc.ABC):
+    """A physical effect: parameters and a hook that edits a :class:`ModelSetup` (an abstract base
+    class: the contract every effect of a model and of model criticism fulfils).
 
     Subclasses set ``name`` (unique in a model), ``description`` and ``switchable`` (False for an
     effect that replaces a component: no parameter value turns it off, only leaving it out does),
     and implement :meth:`parameters` and :meth:`apply`. Options that are not identified (which rod
-    carries a point mass) are constructor arguments and appear in :meth:`config`.
+    carries a point mass) are constructor arguments and appear in :meth:`config`, so that
+    ``effect_from_config(effect.config()) == effect`` (:mod:`physics.effects.catalog`).
     """
 
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     switchable: ClassVar[bool] = True
 
+    @abc.abstractmethod
     def parameters(self) -> tuple[Parameter, ...]:
-        raise NotImplementedError
+        """The effect's identified parameters, in the order they extend θ (:func:`model_space`)."""
 
+    @abc.abstractmethod
     def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
         """Edit ``setup`` for the effect's parameter ``values`` (by name) at the T6 parameters ``params``."""
-        raise NotImplementedError
 
     @property
     def off(self) -> dict[str, float] | None:

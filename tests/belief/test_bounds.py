@@ -1,5 +1,6 @@
 """Parameters pinned at a bound of the box after fitting: detection, verdict rule 6, the Belief's
-summary and file, diagnose's report, and identify on data the model cannot fit."""
+summary and file, and identify on data the model cannot fit (criticism's re-tuning:
+tests/criticism/test_diagnose.py)."""
 from __future__ import annotations
 
 import json
@@ -13,9 +14,6 @@ from hypothesis import strategies as st
 
 from belief import AT_BOUND_TOLERANCE, AtBound, Belief, SobolCandidates, VerdictConfig, at_bounds, identify
 from belief.bounds import entries_from_records, inadequacy_text
-from belief.criticism import Candidate, Criticism
-from belief.diagnose import DiagnoseConfig, Diagnosis, Pass, retuned_at_bounds
-from belief.diagnose_report import diagnosis_record, diagnosis_text
 from belief.errors import BeliefError
 from belief.result import IdentificationResult
 from belief.verdicts import pinned
@@ -97,8 +95,6 @@ def test_bad_input_is_refused_with_the_fix() -> None:
         entries_from_records([AtBound("ghost", "m", "upper", 1.0, 1.0, 1.0).as_dict()], T6.names)
     with pytest.raises(BeliefError, match="bound_tolerance"):
         VerdictConfig(bound_tolerance=0.7)
-    with pytest.raises(BeliefError, match="bound_tolerance"):
-        DiagnoseConfig(bound_tolerance=-0.1)
 
 
 # ------------------------------------------------------------------------------------ rule 6 and Belief
@@ -140,36 +136,6 @@ def test_belief_summary_marks_pinned_rows_and_states_the_inadequacy(tmp_path) ->
 def test_belief_refuses_corrupt_at_bound_records() -> None:
     with pytest.raises(BeliefError, match="not parameters"):
         _belief([AtBound("ghost", "m", "upper", 1.0, 1.0, 1.0)])
-
-
-# ---------------------------------------------------------------------------------------- diagnose
-def test_retuned_at_bounds_lists_what_the_re_tuning_moved_or_the_identification_pinned() -> None:
-    start = _theta(density=1.0, rod_length=1.0, damping=0.4)
-    retuned = _theta(density=1.0, rod_length=1.0, damping=0.0, stiffnessActive=1.0)
-    b = _belief(list(at_bounds(T6, start)[1:]))             # the identification pinned rod_length, not density
-    names = [(a.name, a.side, a.source) for a in retuned_at_bounds(T6, start, retuned, b)]
-    assert names == [("rod_length", "upper", "re-tuning"), ("stiffnessActive", "upper", "re-tuning"),
-                     ("damping", "lower", "re-tuning")]
-    assert [a.name for a in retuned_at_bounds(T6, start, retuned, None)] == ["stiffnessActive", "damping"]
-
-
-def _diagnosis(at: tuple[AtBound, ...]) -> Diagnosis:
-    floor = Candidate("re-tuned model", "floor", {"damping": 180.0}, 1.0, 2.0, 0.1, 3.0)
-    crit = Criticism(_theta(), 1.0, 2.0, 10.0, 10.0, [], floor, "unexplained", None)
-    step = Pass((), T6.names, _theta(), crit, {"t1": 2.0}, at_bounds=at)
-    return Diagnosis([step], (), [1], _belief([]), {"bound_tolerance": 0.01})
-
-
-def test_diagnose_report_lists_the_parameters_at_bounds_after_the_re_tuning() -> None:
-    at = at_bounds(T6, _theta(stiffnessActive=1.0, damping=0.0), source="re-tuning")
-    text = diagnosis_text(_diagnosis(at))
-    assert "Model inadequacy: 2 parameters sit at a bound of the prior box after the re-tuning" in text
-    assert "stiffnessActive at upper bound 880 N/m (+10 % of nominal)" in text
-    assert "damping at lower bound 180 N*s/m (-10 % of nominal)" in text
-    record = json.loads(json.dumps(diagnosis_record(_diagnosis(at)), default=float))
-    assert [(r["name"], r["side"]) for r in record["passes"][0]["at_bounds"]] == [("stiffnessActive", "upper"),
-                                                                                ("damping", "lower")]
-    assert "Model inadequacy" not in diagnosis_text(_diagnosis(()))
 
 
 # ------------------------------------------------------------- identify on data the model cannot fit
@@ -227,7 +193,7 @@ def test_cli_prints_and_writes_the_inadequacy_block(tmp_path, capsys) -> None:
     path = save_trajectory(data, tmp_path / "long_rods.nc")
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["identify", str(path), "--budget", "20", "--candidates", "1024",
+    args = parser.parse_args(["identify", str(path), "--preset", "bo", "--budget", "20", "--candidates", "1024",
                               "--out", str(tmp_path / "out"), "--no-progress"])
     assert args.func(args) == 0
     printed, written = capsys.readouterr().out, (tmp_path / "out" / "summary.txt").read_text()

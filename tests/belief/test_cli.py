@@ -15,20 +15,23 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-@pytest.mark.parametrize("decoder,search", [("identity", "bo"), ("rembo", "bo"), ("identity", "random")])
-def test_identify_push_toy_writes_everything(tmp_path, decoder: str, search: str, capsys) -> None:
-    out = tmp_path / f"{decoder}-{search}"
-    args = _parser().parse_args(["identify", "--toy", "push", "--decoder", decoder, "--search", search, "--budget", "10",
+@pytest.mark.parametrize("preset,extra,n", [("bo", [], 10), ("latent", ["--decoder", "rembo"], 10),
+                                             ("random", [], 10), ("bo-gn", [], 10 - 6)])
+def test_identify_push_toy_writes_everything(tmp_path, preset: str, extra: list, n: int, capsys) -> None:
+    out = tmp_path / preset
+    args = _parser().parse_args(["identify", "--toy", "push", "--preset", preset, *extra, "--budget", "10",
                                  "--out", str(out), "--no-progress", "--points-per-dim", "15"])
     assert args.func(args) == 0
     for name in ("result.nc", "summary.txt", "marginals.csv", "history.csv", "error_vs_evaluations.png",
                  "posterior_marginals.png", "journal.sqlite"):
         assert (out / name).stat().st_size > 0, name
     res = IdentificationResult.load(out / "result.nc")
-    assert res.n_evaluations == 10 and abs(float(res.posterior.sum()) - 1) < 1e-9
-    assert (out / "history.csv").read_text().count("\n") == 11
-    assert "best error" in capsys.readouterr().out
-    if decoder == "identity" and search == "bo":
+    assert res.n_evaluations == n and abs(float(res.posterior.sum()) - 1) < 1e-9
+    assert res.config["preset"] == preset
+    assert (out / "history.csv").read_text().count("\n") == n + 1
+    printed = capsys.readouterr().out
+    assert "best error" in printed and f"preset {preset}:" in printed
+    if preset == "bo":
         assert (out / "posterior_2d.png").exists()
     # re-running resumes from the journal: nothing new to evaluate, same history
     assert args.func(args) == 0
@@ -36,12 +39,27 @@ def test_identify_push_toy_writes_everything(tmp_path, decoder: str, search: str
     assert (again.history["cell"].values == res.history["cell"].values).all()
 
 
+def test_the_default_preset_is_the_librarys_best(tmp_path, capsys) -> None:
+    from belief.presets import DEFAULT_PRESET
+
+    args = _parser().parse_args(["identify", "--toy", "push", "--budget", "12", "--out", str(tmp_path / "d"),
+                                 "--no-progress"])
+    assert args.preset == DEFAULT_PRESET
+    assert args.func(args) == 0
+    captured = capsys.readouterr()
+    assert "no latent decoder for this parameter space" in captured.err     # the push toy has none shipped
+    assert IdentificationResult.load(tmp_path / "d" / "result.nc").config["local_step"]["evaluations"] == 6
+
+
 def test_usage_errors(tmp_path, capsys) -> None:
     p = _parser()
     args = p.parse_args(["identify", "--out", str(tmp_path)])
     assert args.func(args) == 2
     assert "exactly one" in capsys.readouterr().err
-    args = p.parse_args(["identify", "--toy", "push", "--budget", "0", "--out", str(tmp_path), "--no-progress"])
+    args = p.parse_args(["identify", "--toy", "push", "--budget", "6", "--out", str(tmp_path), "--no-progress"])
+    assert args.func(args) == 2
+    assert "budget=6 is too small for preset 'handoff-gn'" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--preset", "bo", "--budget", "0", "--out", str(tmp_path)])
     assert args.func(args) == 2
     assert "budget must be >= 1" in capsys.readouterr().err
     args = p.parse_args(["identify", "--toy", "push", "--decoder", "vae", "--out", str(tmp_path), "--no-progress"])
@@ -52,22 +70,25 @@ def test_usage_errors(tmp_path, capsys) -> None:
     assert "ActiveSubspace.fit(...).save(FILE)" in capsys.readouterr().err
     args = p.parse_args(["identify", "--toy", "push", "--decoder-file", "x.json", "--out", str(tmp_path)])
     assert args.func(args) == 2
-    assert "for trained decoders" in capsys.readouterr().err
+    assert "needs --decoder vae, ae-dyn or active" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         p.parse_args(["identify", "--toy", "push", "--decoder", "pca", "--out", str(tmp_path)])
-    args = p.parse_args(["identify", "--toy", "push", "--handoff", "4", "--out", str(tmp_path)])
+    args = p.parse_args(["identify", "--toy", "push", "--preset", "bo", "--latent", "4", "--out", str(tmp_path)])
     assert args.func(args) == 2
-    assert "already in the full space" in capsys.readouterr().err
-    args = p.parse_args(["identify", "--toy", "push", "--decoder", "rembo", "--handoff", "10", "--budget", "10",
-                         "--out", str(tmp_path)])
+    assert "has none" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--preset", "bo", "--decoder", "rembo", "--out", str(tmp_path)])
     assert args.func(args) == 2
-    assert "below --budget" in capsys.readouterr().err
+    assert "full space only" in capsys.readouterr().err
+    args = p.parse_args(["identify", "--toy", "push", "--preset", "handoff", "--decoder", "rembo", "--latent", "10",
+                         "--budget", "10", "--out", str(tmp_path)])
+    assert args.func(args) == 2
+    assert "give at least 11" in capsys.readouterr().err
 
 
 def test_handoff_continues_in_the_full_space(tmp_path) -> None:
     out = tmp_path / "handoff"
-    args = _parser().parse_args(["identify", "--toy", "push", "--decoder", "rembo", "--dim", "1", "--handoff", "5",
-                                 "--budget", "11", "--candidates", "256", "--out", str(out), "--no-progress"])
+    args = _parser().parse_args(["identify", "--toy", "push", "--preset", "handoff", "--decoder", "rembo", "--dim", "1",
+                                 "--latent", "5", "--budget", "11", "--candidates", "256", "--out", str(out), "--no-progress"])
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
     assert res.n_evaluations == 11 and res.config["decoder"]["kind"] == "identity"
@@ -84,7 +105,7 @@ def test_identify_t6_trajectory_file(tmp_path) -> None:
     data = simulate(space.sample(1, seed=3)[0], controller=FlopController(heading=0.0), duration=0.5)
     path = save_trajectory(data, tmp_path / "obs.nc")
     out = tmp_path / "out"
-    args = _parser().parse_args(["identify", str(path), "--decoder", "rembo", "--dim", "3", "--points-per-dim", "5",
+    args = _parser().parse_args(["identify", str(path), "--preset", "latent", "--decoder", "rembo", "--dim", "3", "--points-per-dim", "5",
                                  "--budget", "6", "--out", str(out), "--no-progress"])
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
@@ -107,7 +128,7 @@ def two_files(tmp_path_factory):
 @pytest.mark.slow
 def test_identify_several_trajectory_files_make_one_objective(tmp_path, two_files, capsys) -> None:
     out = tmp_path / "out"
-    args = _parser().parse_args(["identify", *two_files, "--search", "random", "--budget", "3", "--windows", "2",
+    args = _parser().parse_args(["identify", *two_files, "--preset", "random", "--budget", "3", "--windows", "2",
                                  "--out", str(out), "--no-progress"])
     assert args.data == two_files and args.windows == 2
     assert args.func(args) == 0
@@ -126,15 +147,3 @@ def test_trajectory_usage_errors(tmp_path, two_files, capsys) -> None:
     assert args.func(args) == 2
     assert "windows must be an integer >= 1" in capsys.readouterr().err
 
-
-def test_diagnose_usage_errors_name_the_fix(tmp_path, two_files, capsys) -> None:
-    """Bad input to ``tensegrid diagnose`` fails before any identification, saying what to do."""
-    from physics.cli import main
-
-    assert main(["diagnose", *two_files, "--effects", "magic", "--out", str(tmp_path)]) == 2
-    err = capsys.readouterr()
-    assert "unknown effect(s) ['magic']" in err.err and "samples at 100 Hz" in err.out
-    assert main(["diagnose", *two_files, "--held-out", "0", "1", "--out", str(tmp_path)]) == 2
-    assert "some (not all)" in capsys.readouterr().err
-    assert main(["diagnose", str(tmp_path / "missing.nc"), "--out", str(tmp_path)]) == 2
-    assert "does not exist" in capsys.readouterr().err

@@ -20,9 +20,10 @@ from belief import (
     identify,
 )
 from embeddings import REMBO, Identity
-from physics.errors import PhysicsError
+from belief.grid import CandidateSet
+from physics.errors import ContractError, ParameterError, PhysicsError
 from physics.parameters import ParameterSpace
-from physics.push import push_space
+from physics.push import PushError, push_space
 
 HIST_VARS = ("z", "theta", "error", "status", "cell", "batch")
 
@@ -141,7 +142,7 @@ def test_nan_errors_are_failed_evaluations(push_problem) -> None:
                    space=obj.space, noise_var=0.0025, progress=False)
     failed = res.history["status"].values == "failed"
     assert failed.any()
-    assert all("non-finite" in m for m in res.history["message"].values[failed])
+    assert all("not one finite value" in m for m in res.history["message"].values[failed])
 
 
 def test_all_failed_raises_objective_error(push_problem) -> None:
@@ -217,20 +218,22 @@ def test_rembo_on_sobol_candidates_in_15d(tmp_path) -> None:
     assert np.array_equal(back.posterior.values, res2.posterior.values)
 
 
-class _EmptyGrid:
-    points = np.zeros((0, 2))
-    size = 0
-    dim = 2
-    bounds = np.array([[0.0, 1.0], [0.0, 1.0]])
+class _EmptyGrid(CandidateSet):
+    """A candidate set without cells (the contract allows n = 0; identify refuses it)."""
 
-    def to_dataarray(self, v):  # pragma: no cover - never reached
+    bounds = np.array([[0.0, 1.0], [0.0, 1.0]])
+    _points = np.zeros((0, 2))
+    dims = ("cell",)
+
+    def to_dataarray(self, values, *, name=None):  # pragma: no cover - never reached
         raise AssertionError
 
     def config(self):  # pragma: no cover
-        return {}
+        return {"kind": "empty"}
 
-    def nearest(self, z):  # pragma: no cover
-        raise AssertionError
+    @classmethod
+    def from_config(cls, config):  # pragma: no cover
+        return cls()
 
 
 def test_validation(push_problem) -> None:
@@ -253,73 +256,30 @@ def test_validation(push_problem) -> None:
         (GridError, "grid is empty", {"grid": _EmptyGrid()}),
         (GridError, "grid has 3 latent dimensions", {"grid": Grid(np.tile([0.0, 1.0], (3, 1)), points_per_dim=3)}),
         (GridError, "leave the decoder's latent box", {"grid": Grid([[0.0, 2.0], [0.0, 1.0]], points_per_dim=5)}),
-        (GridError, "grid lacks", {"grid": object()}),
+        (GridError, "must be a belief.grid.CandidateSet", {"grid": object()}),
         (BeliefError, "differs from the objective", {"decoder": Identity(push_space(mass=(0.4, 1.5)))}),
         (BeliefError, "an embeddings.Decoder", {"decoder": object()}),
-        (ObjectiveError, "must be callable", {"objective": 3.0}),
+        (ContractError, "must be a physics.objective.Objective or a function", {"objective": 3.0}),
+        (ParameterError, "differs from the objective's own", {"space": push_space(mass=(0.4, 1.5))}),
         (BeliefError, "contradicts posterior_config", {"posterior_config": PosteriorConfig(mode="minimizer")}),
     ]
     for exc, match, kw in cases:
         with pytest.raises(exc, match=match):
             run(**kw)
-    with pytest.raises(BeliefError, match="pass space="):
+    with pytest.raises(ParameterError, match="pass space="):
         identify(lambda th: 0.0, dec, grid, budget=5, seed=0, progress=False)
-    with pytest.raises(ObjectiveError, match="scalar error, got an array of shape"):
+    with pytest.raises(ContractError, match="scalar error, got an array of shape"):
         identify(lambda th: np.ones(3), dec, grid, budget=5, seed=0, space=obj.space, progress=False)
-    with pytest.raises(ObjectiveError, match="got str"):
+    with pytest.raises(ContractError, match="got str"):
         identify(lambda th: "bad", dec, grid, budget=5, seed=0, space=obj.space, progress=False)
 
 
-def test_batch_results_with_seconds_and_messages(push_problem) -> None:
-    """An evaluate_batch returning a result object (like physics.BatchResult) keeps per-row times and reasons."""
-    obj, _ = push_problem()
-
-    class Batch:
-        def __init__(self, rows, seconds, messages):
-            self.rows, self.seconds, self.messages = rows, seconds, messages
-
-        def __iter__(self):
-            return iter(self.rows)
-
-    class Objective:
-        space = obj.space
-        noise_var = obj.noise_var
-
-        def __call__(self, theta):
-            return obj(theta)
-
-        def evaluate_batch(self, thetas):
-            rows = [(float("nan"), "diverged") if th[0] > 1.2 else (obj(th), "ok") for th in thetas]
-            msgs = ["exploded" if s != "ok" else "" for _, s in rows]
-            return Batch(rows, np.arange(1.0, len(rows) + 1), msgs)
-
-    dec = Identity(obj.space)
-    res = identify(Objective(), dec, Grid.for_decoder(dec, points_per_dim=21), budget=9, n_init=5, q=2, seed=0,
-                   progress=False)
-    h = res.history
-    np.testing.assert_array_equal(np.sort(h["seconds"].values[:5]), [1.0, 2.0, 3.0, 4.0, 5.0])  # per-row times
-    failed = h["status"].values == "failed"
-    assert failed.any() and all("'diverged'" in m and "exploded" in m for m in h["message"].values[failed])
-    with pytest.raises(ObjectiveError, match="returned 1 results for 5"):
-        bad = Objective()
-        bad.evaluate_batch = lambda thetas: [(1.0, "ok")]
-        identify(bad, dec, Grid.for_decoder(dec, points_per_dim=21), budget=9, n_init=5, seed=0, progress=False)
-
-
 def test_streamed_rows_keep_statuses_and_parts(push_problem) -> None:
-    """An evaluate_batch with on_result (the physics.objective contract) is journalled row by row, with
-    its segment errors; a row reported "ok" with a non-finite error becomes "failed"."""
+    """evaluate_batch's rows are journalled as they stream through on_result (the physics.objective
+    contract), with their segment errors; a row reported "ok" with a non-finite error becomes "failed"."""
     obj, _ = push_problem()
 
-    class Streaming:
-        space, segments, noise_var = obj.space, obj.segments, obj.noise_var
-
-        def __call__(self, theta):
-            return obj(theta)
-
-        def evaluate_parts(self, theta):
-            return obj.evaluate_parts(theta)
-
+    class Streaming(PushError):
         def evaluate_batch(self, thetas, *, on_result=None):
             for k in reversed(range(len(thetas))):
                 if k == 0:
@@ -331,8 +291,9 @@ def test_streamed_rows_keep_statuses_and_parts(push_problem) -> None:
                     p = obj.evaluate_parts(thetas[k])
                     on_result(k, float(p.sum()), "ok", 0.5, "", p)
 
+    streaming = Streaming(obj.impulses, obj.observed, noise_std=obj.noise_std)
     dec = Identity(obj.space)
-    res = identify(Streaming(), dec, Grid.for_decoder(dec, points_per_dim=11), budget=5, n_init=5, seed=0,
+    res = identify(streaming, dec, Grid.for_decoder(dec, points_per_dim=11), budget=5, n_init=5, seed=0,
                    progress=False, posterior=None)
     h = res.history
     assert sorted(h["status"].values.tolist()) == ["diverged", "failed", "ok", "ok", "ok"]

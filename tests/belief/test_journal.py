@@ -14,6 +14,8 @@ import pytest
 
 from belief import Grid, Journal, JournalError, Record, identify
 from embeddings import Identity
+from physics.objective import BatchResult, evaluate_row
+from physics.push import PushError
 
 HIST_VARS = ("z", "theta", "error", "status", "cell", "batch")
 
@@ -99,25 +101,27 @@ def test_resume_after_an_interruption_mid_batch(tmp_path, push_problem) -> None:
     assert _same_history(res.history, ref.history)
 
 
-class _StreamingBatch:
-    """A batch objective that finishes its rows in reverse order, streams them through ``on_result``
-    and can be 'killed' (KeyboardInterrupt) after ``kill_after`` rows of one batch."""
+class _StreamingBatch(PushError):
+    """The push objective with a batch that finishes its rows in reverse order, streams them through
+    ``on_result`` and can be 'killed' (KeyboardInterrupt) after ``kill_after`` rows of one batch."""
 
-    def __init__(self, obj, kill_after: int | None = None) -> None:
-        self.obj, self.space, self.kill_after = obj, obj.space, kill_after
-
-    def __call__(self, theta):
-        return self.obj(theta)
+    kill_after: int | None = None
 
     def evaluate_batch(self, thetas, *, on_result=None):
         rows = [None] * len(thetas)
         for n, k in enumerate(reversed(range(len(thetas)))):
             if self.kill_after is not None and n == self.kill_after:
                 raise KeyboardInterrupt
-            rows[k] = (self.obj(thetas[k]), "ok")
+            rows[k] = evaluate_row(self, thetas[k])
             if on_result is not None:
-                on_result(k, rows[k][0], "ok", 0.0, "", (rows[k][0],))
-        return rows
+                on_result(k, *rows[k])
+        return BatchResult.from_rows(rows, len(self.segments))
+
+
+def _streaming(obj, cls=_StreamingBatch, kill_after=None):
+    out = cls(obj.impulses, obj.observed, noise_std=obj.noise_std)
+    out.kill_after = kill_after
+    return out
 
 
 def test_a_parallel_batch_is_journalled_row_by_row_and_resumes_its_missing_cells(tmp_path, push_problem) -> None:
@@ -125,10 +129,10 @@ def test_a_parallel_batch_is_journalled_row_by_row_and_resumes_its_missing_cells
     dec = Identity(obj.space)
     grid = Grid.for_decoder(dec, points_per_dim=21)
     kw = dict(budget=12, q=4, n_init=4, seed=5, progress=False, posterior=None, space=obj.space)
-    ref = identify(_StreamingBatch(obj), dec, grid, **kw)
+    ref = identify(_streaming(obj), dec, grid, **kw)
     path = tmp_path / "j.sqlite"
     with pytest.raises(KeyboardInterrupt):
-        identify(_StreamingBatch(obj, kill_after=3), dec, grid, journal=path, **kw)  # dies in the first batch
+        identify(_streaming(obj, kill_after=3), dec, grid, journal=path, **kw)  # dies in the first batch
     with sqlite3.connect(path) as con:
         assert con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0] == 3
     calls = []
@@ -138,7 +142,7 @@ def test_a_parallel_batch_is_journalled_row_by_row_and_resumes_its_missing_cells
             calls.append(len(thetas))
             return super().evaluate_batch(thetas, on_result=on_result)
 
-    res = identify(Counting(obj), dec, grid, journal=path, **kw)
+    res = identify(_streaming(obj, Counting), dec, grid, journal=path, **kw)
     assert calls == [4, 4]  # the one missing cell of batch 0 by a plain call, then batches 1 and 2 whole
     assert _same_history(res.history, ref.history)
 

@@ -33,6 +33,10 @@ class MassLine(Decoder):
     def config(self) -> dict[str, Any]:
         return {"kind": "mass-line", "mu_unit": self.mu_unit}
 
+    @classmethod
+    def from_config(cls, config: dict[str, Any], space: Any) -> "MassLine":
+        return cls(space, config["mu_unit"])
+
 
 @pytest.fixture(scope="module")
 def line_runs():

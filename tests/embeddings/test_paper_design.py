@@ -52,3 +52,30 @@ def test_designs_are_the_points_the_searches_evaluate_first() -> None:
 def test_best_so_far_scores_the_point_of_lowest_fitted_error() -> None:
     fit, held = np.array([3.0, 1.0, 2.0, 0.5]), np.array([10.0, 100.0, 1.0, 1000.0])
     np.testing.assert_allclose(best_so_far(fit, held), [1.0, 2.0, 2.0, 3.0])
+
+
+def test_paper_runs_each_belief_method_as_a_library_preset(monkeypatch) -> None:
+    import paper
+
+    import belief.presets as presets
+
+    calls: list[tuple[str, object]] = []
+
+    def record(objective, preset, **kwargs):
+        calls.append((preset.name, kwargs["decoder"]))
+        return None
+
+    monkeypatch.setattr(presets, "run_preset", record)
+    space, settings = ParameterSpace.t6(), Settings()
+
+    class Stub:
+        count_residuals = False
+
+    decoders = {name: object() for name in paper.TRAINED}
+    belief_methods = [m for m in paper.METHODS if m not in paper.PEERS]
+    for name in belief_methods:
+        paper.run_method(name, Stub(), space, decoders, settings, seed=0)
+    assert [name for name, _ in calls] == [paper.PRESET_OF[m][0] for m in belief_methods]
+    assert dict(zip(belief_methods, (d for _, d in calls)))["ae-cf-bo-gn"] is decoders["ae-cf-5"]
+    best = paper.method_preset("ae-cf-bo-gn", space, settings)
+    assert best == presets.PRESETS[presets.DEFAULT_PRESET]       # the paper's best is the library default

@@ -99,7 +99,13 @@ def test_register_decoder_adds_kinds_and_guards_them(monkeypatch) -> None:
     assert isinstance(decoder_from_config({"kind": "half"}, SPACE), _Half)
     with pytest.raises(EmbeddingError, match="decoder kind 'rembo' is already registered to REMBO"):
         register_decoder("rembo")(_Half)
-    with pytest.raises(EmbeddingError, match="decorates a Decoder subclass with a classmethod from_config"):
+    with pytest.raises(EmbeddingError, match="decorates a Decoder subclass"):
         register_decoder("thing")(dict)
+
+    class Unbuildable(Decoder):      # from_config (and the rest of the contract) left abstract
+        pass
+
+    with pytest.raises(EmbeddingError, match=r"leaves \[.*'from_config'.*\] of the Decoder contract abstract"):
+        register_decoder("unbuildable")(Unbuildable)
     with pytest.raises(EmbeddingError, match="non-empty string kind"):
         register_decoder("")

@@ -91,10 +91,10 @@ def test_train_embedding_then_identify_with_it(tmp_path, capsys) -> None:
     assert "held-out MSE" in printed and out.exists() and (tmp_path / "ae.dynamics.json").exists()
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command", required=True))
-    run = parser.parse_args(["identify", "--toy", "push", "--decoder", "ae-dyn", "--decoder-file", str(out),
+    run = parser.parse_args(["identify", "--toy", "push", "--preset", "latent", "--decoder", "ae-dyn", "--decoder-file", str(out),
                              "--budget", "5", "--out", str(tmp_path / "id"), "--no-progress"])
     assert run.func(run) == 0
-    wrong = parser.parse_args(["identify", "--toy", "push", "--decoder", "vae", "--decoder-file", str(out),
+    wrong = parser.parse_args(["identify", "--toy", "push", "--preset", "latent", "--decoder", "vae", "--decoder-file", str(out),
                                "--budget", "5", "--out", str(tmp_path / "id2"), "--no-progress"])
     assert wrong.func(wrong) == 2
     assert "holds a ae-dyn decoder" in capsys.readouterr().err

@@ -1,8 +1,18 @@
-"""``tensegrid diagnose``: close the loop on measured trajectories (belief.diagnose) and write the report."""
+"""``tensegrid diagnose``: close the loop on measured trajectories (criticism.diagnose) and write the report.
+
+Registered as a plugin of the ``tensegrid`` command line (entry-point group ``tensegrid.commands``,
+pyproject.toml), so physics.cli does not import criticism.
+"""
 from __future__ import annotations
 
 import argparse
 from typing import Any
+
+from criticism.diagnose import DiagnoseConfig, diagnose
+from criticism.report import diagnosis_text, write_report
+from physics.effects import EFFECT_TYPES
+from physics.errors import ParameterError
+from physics.trajectory import describe_trajectory, load_trajectory
 
 __all__ = ["register_diagnose", "run_diagnose"]
 
@@ -30,12 +40,8 @@ def register_diagnose(subparsers: "argparse._SubParsersAction[Any]") -> None:
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
-    from belief.diagnose import DiagnoseConfig, diagnose
-    from belief.diagnose_report import diagnosis_text, write_report
-    from physics.effects import EFFECT_TYPES
-    from physics.errors import ParameterError
-    from physics.trajectory import describe_trajectory, load_trajectory
-
+    """Load the trajectory files, run :func:`~criticism.diagnose.diagnose`, print and write the report
+    (report.txt, diagnosis.json, figures) to ``--out``; returns the exit status 0."""
     data = [load_trajectory(path) for path in args.data]
     for path, ds in zip(args.data, data):
         print(f"{path}: " + "; ".join(describe_trajectory(ds)))

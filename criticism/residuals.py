@@ -1,6 +1,7 @@
 """Where the model misses: residuals r_i = x_i - x̂_i by node, axis and time, labelled by phase.
 
-For the trajectories of an objective with ``predictions(θ)`` (physics.TrajectoryError) the
+For the trajectories of an objective with ``predictions(θ)``
+(:class:`physics.effect_objective.EffectObjective`, e.g. physics.TrajectoryError) the
 residual of sample i is the observed node positions minus the predicted ones (12 x 3) [m].
 Each sample gets one phase, from the data alone (no θ):
 
@@ -20,6 +21,8 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+
+from physics.effect_objective import EffectObjective
 
 __all__ = ["PHASES", "PhaseRule", "phases", "residual_dataset", "residual_summary"]
 
@@ -54,18 +57,19 @@ def phases(ds: xr.Dataset, rule: PhaseRule = PhaseRule()) -> np.ndarray:
     crossing = np.zeros(T, bool)
     finite = np.isfinite(nodes[:, :, 2]).all(axis=1)
     crossing[1:] = (low[1:] != low[:-1]).any(axis=1) & finite[1:] & finite[:-1]
-    for i in np.flatnonzero(crossing):
-        label[max(0, i - rule.contact_window):i + rule.contact_window + 1] = "contact"
+    for j in np.flatnonzero(crossing):
+        label[max(0, j - rule.contact_window):j + rule.contact_window + 1] = "contact"
     return label.astype(str)
 
 
-def residual_dataset(objective: Any, theta: np.ndarray, rule: PhaseRule = PhaseRule(),
-                     predictions: "list[xr.DataArray] | None" = None) -> xr.Dataset:
+def residual_dataset(objective: EffectObjective, theta: np.ndarray, rule: PhaseRule = PhaseRule(),
+                     predictions: list[xr.DataArray] | None = None) -> xr.Dataset:
     """Residuals of every trajectory of ``objective`` at θ, stacked along ``sample``.
 
     Variables: ``residual`` (sample, node, axis) [m], ``norm`` (sample) = ||r_i||_2, ``phase``
     (sample); coordinates ``trajectory`` and ``time`` (sample). Only finite samples are kept;
-    ``attrs["skipped"]`` counts the others per trajectory (a list)."""
+    ``attrs["skipped"]`` counts the others per trajectory (a list). ``predictions``: the objective's
+    predictions at θ when already computed (one simulation fewer)."""
     preds = predictions if predictions is not None else objective.predictions(theta)
     blocks, skipped = [], []
     for k, (ds, pred) in enumerate(zip(objective.trajectories, preds)):

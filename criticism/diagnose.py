@@ -5,7 +5,7 @@ One pass on trajectories split into *fit* and *held-out* ones:
 1. identify θ̂ of the current model (T6 + effects added so far) on the fit trajectories
    (belief.identify, full-space BO with the honest posterior);
 2. criticize: rank the catalog effects by what they explain of the held-out residual beyond the
-   floor (belief.criticism);
+   floor (criticism.search);
 3. if an effect is found: add it, identify again in the extended space (warm-started at
    criticism's joint fit of (θ, η)), and measure the held-out error before (at θ̃, the model re-tuned by
    criticism, so the extra search of the second identification is not credited to the effect)
@@ -33,15 +33,23 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+import xarray as xr
 
 from belief.belief import Belief
 from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
-from belief.criticism import Criticism, CriticismConfig, criticize
-from belief.errors import BeliefError
 from belief.grid import SobolCandidates
 from belief.identify import identify
 from belief.proposers import BOProposer, SobolDesign, WarmStart
-from belief.residuals import residual_dataset, residual_summary
+from belief.result import IdentificationResult
+from criticism.errors import CriticismError
+from criticism.residuals import residual_dataset, residual_summary
+from criticism.search import Criticism, CriticismConfig, criticize
+from embeddings import Identity
+from physics.effects import Effect, catalog, effect_from_config
+from physics.error import TrajectoryError
+from physics.objective import Objective
+from physics.parameters import ParameterSpace
+from physics.tensegrity import ModelOptions
 
 __all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "split_masks", "retuned_at_bounds"]
 
@@ -64,10 +72,11 @@ class DiagnoseConfig:
 
     def __post_init__(self) -> None:
         if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
-            raise BeliefError("DiagnoseConfig needs passes >= 1, budget >= 2, candidates >= budget and horizon >= 1.")
+            raise CriticismError("DiagnoseConfig needs passes >= 1, budget >= 2, candidates >= budget and "
+                                 "horizon >= 1.")
         if not (isinstance(self.bound_tolerance, (int, float)) and 0 <= self.bound_tolerance < 0.5):
-            raise BeliefError(f"DiagnoseConfig.bound_tolerance must be a fraction of the box width in [0, 0.5), "
-                              f"got {self.bound_tolerance!r}.")
+            raise CriticismError(f"DiagnoseConfig.bound_tolerance must be a fraction of the box width in [0, 0.5), "
+                                 f"got {self.bound_tolerance!r}.")
 
 
 @dataclass
@@ -117,12 +126,13 @@ class Pass:
 @dataclass
 class Diagnosis:
     """Result of :func:`diagnose`: the passes, the final effects, the held-out trajectories
-    (indices; empty with one trajectory: then errors are in-sample), the first Belief and the objective's settings."""
+    (indices; empty with one trajectory: then errors are in-sample), the first identification's
+    Belief (None if it made none) and the objective's settings."""
 
     passes: list[Pass]
     effects: tuple[str, ...]
     held_out: list[int]
-    belief: Belief
+    belief: Belief | None
     settings: dict[str, Any]
 
     @property
@@ -140,7 +150,7 @@ def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.nd
     return ~held, held
 
 
-def retuned_at_bounds(space: Any, start: np.ndarray, retuned: np.ndarray, belief: Belief | None, *,
+def retuned_at_bounds(space: ParameterSpace, start: np.ndarray, retuned: np.ndarray, belief: Belief | None, *,
                       tolerance: float = AT_BOUND_TOLERANCE) -> tuple[AtBound, ...]:
     """The parameters at a bound of the re-tuned θ̃ (D,) that the re-tuning moved there from θ̂
     (``start``, D,), or that the identification's ``belief`` already lists at that bound (verdict
@@ -152,7 +162,7 @@ def retuned_at_bounds(space: Any, start: np.ndarray, retuned: np.ndarray, belief
     return tuple(a for a in found if a.name in moved or (a.name, a.side) in known)
 
 
-def _held_errors(objective: Any, theta: np.ndarray, held: np.ndarray) -> dict[str, float]:
+def _held_errors(objective: Objective, theta: np.ndarray, held: np.ndarray) -> dict[str, float]:
     """Held-out E per trajectory (name "t{k}") at θ."""
     parts = np.asarray(objective.evaluate_parts(theta), float)
     out: dict[str, float] = {}
@@ -163,11 +173,9 @@ def _held_errors(objective: Any, theta: np.ndarray, held: np.ndarray) -> dict[st
     return out
 
 
-def _identify(objective: Any, config: DiagnoseConfig, seed: int, warm: np.ndarray | None, journal: Path | None,
-              progress: bool) -> Any:
+def _identify(objective: Objective, config: DiagnoseConfig, seed: int, warm: np.ndarray | None,
+              journal: Path | None, progress: bool) -> IdentificationResult:
     """Full-space BO on ``objective``; ``warm`` (D,) becomes cell 0 and is evaluated first."""
-    from embeddings import Identity
-
     space = objective.space
     decoder = Identity(space)
     include = None if warm is None else decoder.encode(np.clip(warm, space.lower, space.upper))[None]
@@ -182,26 +190,24 @@ def _check_held_out(n: int, held_out: Sequence[int] | None) -> list[int]:
         return list(range(n - max(1, n // 3), n)) if n >= 2 else []
     held = sorted({int(k) for k in held_out})
     if any(k not in range(n) for k in held) or (held and len(held) == n):
-        raise BeliefError(f"held_out must name some (not all) of the {n} trajectories by index 0..{n - 1}, got "
-                          f"{list(held_out)}.")
+        raise CriticismError(f"held_out must name some (not all) of the {n} trajectories by index 0..{n - 1}, got "
+                             f"{list(held_out)}.")
     return held
 
 
-def diagnose(trajectories: Sequence[Any], *, held_out: Sequence[int] | None = None, effects: Sequence[Any] | None = None,
-             config: DiagnoseConfig = DiagnoseConfig(), journal_dir: "str | os.PathLike[str] | None" = None,
-             options: Any = None, n_workers: int = 2, progress: bool = True) -> Diagnosis:
+def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | None = None,
+             effects: Sequence[Effect] | None = None, config: DiagnoseConfig = DiagnoseConfig(),
+             journal_dir: str | os.PathLike[str] | None = None, options: ModelOptions | None = None,
+             n_workers: int = 2, progress: bool = True) -> Diagnosis:
     """Run the loop of the module docstring on ``trajectories`` (xarray Datasets, docs/data-format.md).
 
     held_out: indices of the trajectories kept for scoring (default: the last third, at least one,
     when there are two or more); effects: the catalog to try (default physics.effects.catalog());
     journal_dir: identifications are journalled there and resume after an interruption; options:
     physics.ModelOptions of the model."""
-    from physics.effects import catalog, effect_from_config
-    from physics.error import TrajectoryError
-
     data = list(trajectories)
     if not data:
-        raise BeliefError("diagnose needs at least one trajectory.")
+        raise CriticismError("diagnose needs at least one trajectory.")
     held_idx = _check_held_out(len(data), held_out)
     fit_idx = [k for k in range(len(data)) if k not in held_idx]
     tries = list(effects) if effects is not None else list(catalog())
@@ -213,7 +219,7 @@ def diagnose(trajectories: Sequence[Any], *, held_out: Sequence[int] | None = No
     try:
         fit, held = split_masks(full.segments, held_idx)
         fit_objective = full.select(fit_idx)
-        added: tuple = ()
+        added: tuple[Effect, ...] = ()
         ident = _identify(fit_objective, config, config.seed, None, _journal(journals, 0), progress)
         first_belief, passes = ident.belief, []
         for k in range(config.passes):

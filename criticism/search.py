@@ -1,7 +1,8 @@
-"""Criticism: which physical effect the identified model lacks, judged on held-out data against a floor.
+"""Catalog search: which physical effect the identified model lacks, judged on held-out data against a floor.
 
-Given an objective with segments and effects (physics.TrajectoryError, ``loss="squared"``), the
-identified θ̂, and a split of its segments into *fit* segments F and *held-out* segments H:
+Given an objective with segments and effects (:class:`physics.effect_objective.EffectObjective`,
+e.g. physics.TrajectoryError with ``loss="squared"``), the identified θ̂, and a split of its
+segments into *fit* segments F and *held-out* segments H:
 
 1. the base errors E_F(θ̃), E_H(θ̃) of the current model at the re-tuned θ̃ (below);
 2. for each catalog effect e not yet in the model: its parameters η_e are fitted on F with θ̂
@@ -35,7 +36,7 @@ identified θ̂, and a split of its segments into *fit* segments F and *held-out
    pair against the model with the other one only (same formula). If both reach
    ``min_evidence`` and the pair explains ``min_fraction`` of the held-out error, the first of
    the two is found (the next pass looks for the second). Otherwise **unexplained**, with where
-   the residual concentrates (belief.residuals).
+   the residual concentrates (criticism.residuals).
    When several effects would each be found (a sensor bias and a larger end-cap radius both
    lift the resting robot), they are *contenders* (:func:`_contest`): all are scored with the
    same effective counts K̄_F, K̄_H (their mean), so that a difference of evidence between two
@@ -53,9 +54,12 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from belief import least_squares
-from belief.errors import BeliefError
 from belief.least_squares import LeastSquaresConfig, LocalFit
 from belief.noise import effective_size
+from criticism.errors import CriticismError
+from physics.effect_objective import EffectObjective
+from physics.effects import Effect, effect_from_config
+from physics.objective import BatchResult, Objective
 
 __all__ = ["CriticismConfig", "Candidate", "Criticism", "VERDICTS", "criticize", "fit_effect", "polish"]
 
@@ -81,9 +85,10 @@ class CriticismConfig:
 
     def __post_init__(self) -> None:
         if self.grid < 3 or self.refine < 3:
-            raise BeliefError(f"CriticismConfig needs grid >= 3 and refine >= 3 values, got {self.grid}, {self.refine}.")
+            raise CriticismError(f"CriticismConfig needs grid >= 3 and refine >= 3 values, got {self.grid}, "
+                                 f"{self.refine}.")
         if not (self.min_evidence >= 0 and 0 <= self.min_fraction < 1 and self.tie >= 0):
-            raise BeliefError("CriticismConfig needs min_evidence >= 0, min_fraction in [0, 1) and tie >= 0.")
+            raise CriticismError("CriticismConfig needs min_evidence >= 0, min_fraction in [0, 1) and tie >= 0.")
 
 
 @dataclass(frozen=True)
@@ -98,11 +103,11 @@ class Candidate:
     held_error: float
     explained: float
     evidence: float
-    config: dict = field(default_factory=dict)
+    config: dict[str, Any] = field(default_factory=dict)     # Effect.config() of the effect; {} for the floor
     n_fit: float = math.nan       # K_F of its residuals
     n_held: float = math.nan      # K_H of its residuals
     stage: str = "screened"       # "screened": η fitted with θ̃ held; "joint": θ and η re-tuned together
-    theta: tuple = ()             # the full parameter vector of the model with the effect
+    theta: tuple[float, ...] = ()  # the full parameter vector of the model with the effect
 
 
 @dataclass
@@ -159,13 +164,13 @@ def _values(values: dict[str, float]) -> str:
     return ", ".join(f"{k}={v:.4g}" for k, v in values.items())
 
 
-def _scores(result: Any, mask: np.ndarray) -> np.ndarray:
+def _scores(result: BatchResult, mask: np.ndarray) -> np.ndarray:
     """Σ parts over ``mask`` per row, inf where the evaluation failed."""
     ok = np.array([s == "ok" for s in result.status])
     return np.where(ok, np.nan_to_num(result.parts[:, mask], nan=0.0).sum(axis=1), np.inf)
 
 
-def fit_effect(objective: Any, theta: np.ndarray, indices: Sequence[int], fit: np.ndarray,
+def fit_effect(objective: Objective, theta: np.ndarray, indices: Sequence[int], fit: np.ndarray,
                config: CriticismConfig = CriticismConfig()) -> tuple[np.ndarray, np.ndarray]:
     """Fit the parameters ``indices`` of θ (D,) on the segments ``fit`` (S,) bool, the others held:
     per parameter a grid over its box (plus its current value), then a finer grid around the
@@ -190,15 +195,16 @@ def fit_effect(objective: Any, theta: np.ndarray, indices: Sequence[int], fit: n
     return theta, parts
 
 
-def _effect_theta(objective: Any, theta: np.ndarray, effect: Any) -> tuple[Any, np.ndarray, list[int]]:
+def _effect_theta(objective: EffectObjective, theta: np.ndarray,
+                  effect: Effect) -> tuple[EffectObjective, np.ndarray, list[int]]:
     """The objective with ``effect`` added, θ extended by the effect's starting values, and their indices."""
     extended = objective.with_effects(tuple(objective.effects) + (effect,))
     start = [p.nominal for p in effect.parameters()]
     return extended, np.r_[theta, start], list(range(len(theta), len(theta) + len(start)))
 
 
-def _candidate(name: str, kind: str, values: dict, parts: np.ndarray, fit: np.ndarray, held: np.ndarray,
-               base: tuple[float, float], n_fit: float, n_held: float, k: int, config: dict) -> Candidate:
+def _candidate(name: str, kind: str, values: dict[str, float], parts: np.ndarray, fit: np.ndarray, held: np.ndarray,
+               base: tuple[float, float], n_fit: float, n_held: float, k: int, config: dict[str, Any]) -> Candidate:
     """A ranked row: explained fraction on H and evidence on F and H against ``base`` = (E_F, E_H)."""
     row = Candidate(name, kind, values, float(parts[fit].sum()), float(parts[held].sum()), -math.inf, -math.inf,
                     config, n_fit, n_held)
@@ -223,7 +229,7 @@ def _sizes(residuals: Sequence[np.ndarray], fit: np.ndarray, held: np.ndarray) -
             effective_size([r for r, h in zip(residuals, held) if h]).n_eff)
 
 
-def polish(objective: Any, theta: np.ndarray, fit: np.ndarray, config: CriticismConfig = CriticismConfig(),
+def polish(objective: Objective, theta: np.ndarray, fit: np.ndarray, config: CriticismConfig = CriticismConfig(),
            indices: Sequence[int] | None = None) -> LocalFit:
     """Re-tune the parameters ``indices`` (default all) on the fit segments by bounded least
     squares (belief.least_squares; the fit error never rises): θ̃ (D,), its parts (S,) and residuals."""
@@ -231,8 +237,8 @@ def polish(objective: Any, theta: np.ndarray, fit: np.ndarray, config: Criticism
     return least_squares.refine(objective, np.asarray(theta, float), indices, fit, config.local)
 
 
-def _screen(objective: Any, theta: np.ndarray, parts: np.ndarray, effect: Any, fit: np.ndarray, held: np.ndarray,
-            config: CriticismConfig) -> Candidate:
+def _screen(objective: EffectObjective, theta: np.ndarray, parts: np.ndarray, effect: Effect, fit: np.ndarray,
+            held: np.ndarray, config: CriticismConfig) -> Candidate:
     """The effect's parameters fitted on F with θ̃ held, scored against θ̃."""
     extended, start, indices = _effect_theta(objective, theta, effect)
     fitted, eparts = fit_effect(extended, start, indices, fit, config)
@@ -244,13 +250,12 @@ def _screen(objective: Any, theta: np.ndarray, parts: np.ndarray, effect: Any, f
     return replace(c, theta=tuple(float(v) for v in fitted))
 
 
-def _with(objective: Any, *candidates: Candidate) -> Any:
-    from physics.effects import effect_from_config
-
+def _with(objective: EffectObjective, *candidates: Candidate) -> EffectObjective:
+    """``objective`` with the effects of ``candidates`` (rebuilt from their configs) added to its own."""
     return objective.with_effects(tuple(objective.effects) + tuple(effect_from_config(c.config) for c in candidates))
 
 
-def _joint(objective: Any, c: Candidate, fit: np.ndarray, held: np.ndarray, base: tuple[float, float],
+def _joint(objective: EffectObjective, c: Candidate, fit: np.ndarray, held: np.ndarray, base: tuple[float, float],
            config: CriticismConfig) -> Candidate:
     """A screened effect refined jointly with the model's parameters from (θ̃, η̂); scored against
     the base after its own second refinement."""
@@ -268,8 +273,8 @@ def _joint(objective: Any, c: Candidate, fit: np.ndarray, held: np.ndarray, base
     return replace(out, stage="joint", theta=tuple(float(v) for v in theta))
 
 
-def _pair(objective: Any, a: Candidate, b: Candidate, fit: np.ndarray, held: np.ndarray, base: tuple[float, float],
-          config: CriticismConfig) -> dict[str, Any] | None:
+def _pair(objective: EffectObjective, a: Candidate, b: Candidate, fit: np.ndarray, held: np.ndarray,
+          base: tuple[float, float], config: CriticismConfig) -> dict[str, Any] | None:
     """``a`` and ``b`` (joint fits) refined together from a's θ and b's η; the pair's held-out
     explained fraction against ``base`` and each member's evidence given the other (module docstring)."""
     extended = _with(objective, a, b)
@@ -328,7 +333,8 @@ def _order(ranking: list[Candidate], config: CriticismConfig) -> list[Candidate]
     return close + [c for c in ranking if c not in close]
 
 
-def _verdict(objective: Any, crit: Criticism, fit: np.ndarray, held: np.ndarray, config: CriticismConfig) -> Criticism:
+def _verdict(objective: EffectObjective, crit: Criticism, fit: np.ndarray, held: np.ndarray,
+             config: CriticismConfig) -> Criticism:
     """Set crit.verdict and crit.found (module docstring, step 3), trying the pair when no single effect suffices."""
     ranking = crit.ranking
     if not ranking:
@@ -346,39 +352,41 @@ def _verdict(objective: Any, crit: Criticism, fit: np.ndarray, held: np.ndarray,
     return crit
 
 
-def criticize(objective: Any, theta: np.ndarray, *, fit: Sequence[bool], held: Sequence[bool],
-              effects: Sequence[Any], config: CriticismConfig = CriticismConfig(), structure: dict | None = None,
-              progress: bool = True) -> Criticism:
+def criticize(objective: EffectObjective, theta: np.ndarray, *, fit: np.ndarray | Sequence[bool],
+              held: np.ndarray | Sequence[bool], effects: Sequence[Effect], config: CriticismConfig = CriticismConfig(),
+              structure: dict[str, Any] | None = None, progress: bool = True) -> Criticism:
     """Rank ``effects`` (physics.effects instances not in ``objective.effects``) as explanations of
     the residual of ``objective`` at θ̂ (D,) (module docstring). ``fit``, ``held``: masks (S,)
     over ``objective.segments``, disjoint and non-empty; the objective's loss must be "squared"."""
-    fit, held = np.asarray(fit, bool), np.asarray(held, bool)
+    fit_mask, held_mask = np.asarray(fit, bool), np.asarray(held, bool)
     S = len(objective.segments)
-    if fit.shape != (S,) or held.shape != (S,) or not fit.any() or not held.any() or (fit & held).any():
-        raise BeliefError(f"fit and held must be disjoint, non-empty boolean masks over the {S} segments "
-                          f"{list(objective.segments)}.")
-    if getattr(objective, "loss", "squared") != "squared":
-        raise BeliefError("criticism needs a sum-of-squares objective (TrajectoryError(..., loss='squared')): "
-                          "its evidence is a Gaussian likelihood ratio.")
-    present = {e.name for e in getattr(objective, "effects", ())}
+    if (fit_mask.shape != (S,) or held_mask.shape != (S,) or not fit_mask.any() or not held_mask.any()
+            or (fit_mask & held_mask).any()):
+        raise CriticismError(f"fit and held must be disjoint, non-empty boolean masks over the {S} segments "
+                             f"{list(objective.segments)}.")
+    if objective.loss != "squared":
+        raise CriticismError("criticism needs a sum-of-squares objective (TrajectoryError(..., loss='squared')): "
+                             "its evidence is a Gaussian likelihood ratio.")
+    present = {e.name for e in objective.effects}
     effects = [e for e in effects if e.name not in present]
     start = np.asarray(theta, float)
     start_parts = np.asarray(objective.evaluate_parts(start), float)
-    result = polish(objective, start, fit, config)
-    screened = [_screen(objective, result.theta, result.parts, e, fit, held, config)
+    result = polish(objective, start, fit_mask, config)
+    screened = [_screen(objective, result.theta, result.parts, e, fit_mask, held_mask, config)
                 for e in tqdm(effects, desc="effects", leave=False, disable=not progress)]
     if config.joint > 0 and screened:   # a second refinement for the base too, so both get the same search
-        result = polish(objective, result.theta, fit, config)
+        result = polish(objective, result.theta, fit_mask, config)
     theta, parts = result.theta, result.parts
-    n_fit, n_held = _sizes(result.residuals, fit, held)
-    base = (float(parts[fit].sum()), float(parts[held].sum()))
+    n_fit, n_held = _sizes(result.residuals, fit_mask, held_mask)
+    base = (float(parts[fit_mask].sum()), float(parts[held_mask].sum()))
     moved = {n: float(v) for n, v, v0 in zip(objective.space.names, theta, start) if v != v0}
-    floor = _candidate("re-tuned model", "floor", moved, parts, fit, held,
-                       (float(start_parts[fit].sum()), float(start_parts[held].sum())), n_fit, n_held, len(moved), {})
+    start_base = (float(start_parts[fit_mask].sum()), float(start_parts[held_mask].sum()))
+    floor = _candidate("re-tuned model", "floor", moved, parts, fit_mask, held_mask, start_base, n_fit, n_held,
+                       len(moved), {})
     screened.sort(key=lambda c: -c.evidence)
     top = tqdm(screened[:config.joint], desc="joint fits", leave=False, disable=not progress)
-    ranking = [_joint(objective, c, fit, held, base, config) for c in top]
+    ranking = [_joint(objective, c, fit_mask, held_mask, base, config) for c in top]
     ranking, contest = _contest(ranking + [_rescore(c, base) for c in screened[config.joint:]], base, config)
     crit = Criticism(theta, base[0], base[1], n_fit, n_held, _order(ranking, config), floor, "unexplained", None,
                      dict(structure or {}), contest=contest)
-    return _verdict(objective, crit, fit, held, config)
+    return _verdict(objective, crit, fit_mask, held_mask, config)

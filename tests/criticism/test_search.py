@@ -1,14 +1,16 @@
-"""Criticism and the closed loop on data with an undeclared effect (small versions of
+"""Catalog search and residual phases on data with an undeclared effect (small versions of
 benchmarks/effects.py, which prints the statistics over seeds)."""
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
 
-from belief.criticism import CriticismConfig, criticize
-from belief.diagnose import split_masks
-from belief.errors import BeliefError
-from belief.residuals import phases, residual_dataset, residual_summary
+from criticism import CriticismError
+from criticism.diagnose import split_masks
+from criticism.residuals import phases, residual_dataset, residual_summary
+from criticism.search import Candidate, Criticism, CriticismConfig, _contest, _order, _rescore, _verdict, criticize
 from physics import FlopController, HoldController, TrajectoryError, simulate
 from physics.effects import (
     ActuatorDelay, EncoderOffset, EndCapRadius, GroundSlope, NonlinearStiffness, SensorBias, model_space,
@@ -76,11 +78,11 @@ def test_criticism_refuses_bad_masks_and_norm_loss():
     data, theta = _flops(headings=(0.0,), duration=0.5)
     objective = TrajectoryError(data, horizon=5, loss="squared", n_workers=0)
     S = len(objective.segments)
-    with pytest.raises(BeliefError, match="disjoint"):
+    with pytest.raises(CriticismError, match="disjoint"):
         criticize(objective, theta, fit=np.ones(S, bool), held=np.ones(S, bool), effects=SUBSET)
     norm = TrajectoryError(data, horizon=5, loss="norm", n_workers=0)
     fit, held = split_masks(norm.segments, [])
-    with pytest.raises(BeliefError, match="sum-of-squares"):
+    with pytest.raises(CriticismError, match="sum-of-squares"):
         criticize(norm, theta, fit=fit, held=held, effects=SUBSET)
 
 
@@ -117,8 +119,6 @@ def test_a_mix_of_two_effects_finds_the_larger_first():
 
 
 def test_effects_the_evidence_cannot_tell_apart_are_named_and_ranked_by_evidence():
-    from belief.criticism import Candidate, Criticism, _order, _verdict
-
     def c(name, evidence, explained):
         return Candidate(name, "effect", {name: 1.0}, 1.0, 1.0, explained, evidence, stage="joint")
 
@@ -134,10 +134,6 @@ def test_effects_the_evidence_cannot_tell_apart_are_named_and_ranked_by_evidence
 
 def test_contenders_are_scored_on_common_effective_counts():
     """Two effects that both pass: their evidence difference becomes a likelihood ratio on one K."""
-    import math
-
-    from belief.criticism import Candidate, _contest, _rescore
-
     base = (0.454, 0.211)
     config = CriticismConfig()
     bias = _rescore(Candidate("bias", "effect", {"b": 0.018}, 0.0192, 0.0157, 0, 0, n_fit=40.3, n_held=22.5,

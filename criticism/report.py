@@ -3,7 +3,7 @@
 Figures (written to the output directory):
 
 - ``residual_time.png``: ||r_i|| [mm] over time on each held-out trajectory, before (the first
-  model) and after (the final model), phases shaded (belief.residuals);
+  model) and after (the final model), phases shaded (criticism.residuals);
 - ``residual_nodes.png``: RMS residual per node and axis before and after;
 - ``ranking.png``: held-out explained fraction of each effect on the first pass, the floor dashed;
 - ``signature.png``: the first found effect's signature s_i = x̂_i(with it) - x̂_i(without), its
@@ -14,13 +14,19 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
+import xarray as xr
 
 from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
-from belief.diagnose import Diagnosis
-from belief.residuals import residual_dataset
+from criticism.diagnose import Diagnosis, Pass
+from criticism.residuals import residual_dataset
+from physics.effects import Effect, effect_from_config
+from physics.error import TrajectoryError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 __all__ = ["diagnosis_text", "diagnosis_record", "write_report"]
 
@@ -45,19 +51,26 @@ def diagnosis_text(d: Diagnosis) -> str:
                                  tolerance=d.settings.get("bound_tolerance", AT_BOUND_TOLERANCE))
         if pinned:
             out.append(pinned)
-        if p.added is None:
-            out.append(f"verdict: {p.criticism.verdict} (no effect explains enough of the held-out residual "
-                       "left by the re-tuned model)")
-            continue
-        out.append(f"verdict: found {p.added} ({', '.join(f'{k}={v:.4g}' for k, v in p.criticism.found.values.items())})")
-        out.append(f"{'held-out':10s} {'E before':>12} {'E after':>12} {'change':>8}")
-        for key in p.held_before:
-            b, a = p.held_before[key], p.held_after[key]
-            out.append(f"{key:10s} {b:12.5g} {a:12.5g} {a / b - 1:+8.1%}")
-        tb, ta = sum(p.held_before.values()), sum(p.held_after.values())
-        out.append(f"{'total':10s} {tb:12.5g} {ta:12.5g} {ta / tb - 1:+8.1%}")
-        out.append("re-identified: " + "; ".join(_estimate(n, e) for n, e in p.estimates().items()))
+        out += _outcome(p)
     return "\n".join(out)
+
+
+def _outcome(p: Pass) -> list[str]:
+    """A pass's verdict lines: the effect added, the held-out error E per trajectory before and
+    after with the relative change, and the re-identified estimates; or why nothing was added."""
+    found, after = p.criticism.found, p.held_after
+    if p.added is None or found is None or after is None:
+        return [f"verdict: {p.criticism.verdict} (no effect explains enough of the held-out residual "
+                "left by the re-tuned model)"]
+    out = [f"verdict: found {p.added} ({', '.join(f'{k}={v:.4g}' for k, v in found.values.items())})",
+           f"{'held-out':10s} {'E before':>12} {'E after':>12} {'change':>8}"]
+    for key, b in p.held_before.items():
+        a = after[key]
+        out.append(f"{key:10s} {b:12.5g} {a:12.5g} {a / b - 1:+8.1%}")
+    tb, ta = sum(p.held_before.values()), sum(after.values())
+    out.append(f"{'total':10s} {tb:12.5g} {ta:12.5g} {ta / tb - 1:+8.1%}")
+    out.append("re-identified: " + "; ".join(_estimate(n, e) for n, e in p.estimates().items()))
+    return out
 
 
 def _estimate(name: str, e: dict[str, Any]) -> str:
@@ -81,24 +94,25 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
                         "at_bounds": [a.as_dict() for a in p.at_bounds]} for p in d.passes]}
 
 
-def _objective(d: Diagnosis, trajectories: Sequence[Any], effects: Sequence[Any]) -> Any:
-    from physics.error import TrajectoryError
-
+def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequence[Effect]) -> TrajectoryError:
+    """The diagnosis's error (its horizon and windows, serial) on ``trajectories`` with ``effects``."""
     return TrajectoryError(list(trajectories), horizon=d.settings["horizon"], loss="squared",
                            windows=d.settings["windows"], effects=effects, n_workers=0)
 
 
-def _final(d: Diagnosis) -> tuple[list[Any], np.ndarray]:
+def _final(d: Diagnosis) -> tuple[list[Effect], np.ndarray]:
     """The final model's effects and θ̂."""
-    from physics.effects import effect_from_config
+    effects: list[Effect] = []
+    theta = d.passes[0].theta
+    for p in d.passes:
+        if p.added is not None and p.criticism.found is not None and p.theta_after is not None:
+            effects.append(effect_from_config(p.criticism.found.config))
+            theta = p.theta_after
+    return effects, theta
 
-    added = [p for p in d.passes if p.added is not None]
-    if not added:
-        return [], d.passes[0].theta
-    return [effect_from_config(p.criticism.found.config) for p in added], added[-1].theta_after
 
-
-def _shade(ax: Any, res: Any) -> None:
+def _shade(ax: Axes, res: xr.Dataset) -> None:
+    """Shade the samples of ``res`` by phase: actuating orange, contact red."""
     colours = {"actuating": "tab:orange", "contact": "tab:red"}
     t, ph = np.asarray(res["time"].values), np.asarray(res["phase"].values)
     for name, colour in colours.items():
@@ -106,7 +120,7 @@ def _shade(ax: Any, res: Any) -> None:
             ax.axvspan(t[i] - 0.005, t[i] + 0.005, color=colour, alpha=0.08, lw=0)
 
 
-def _plot_time(before: Any, after: Any, keys: list[int], path: Path) -> None:
+def _plot_time(before: xr.Dataset, after: xr.Dataset, keys: list[int], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(len(keys), 1, figsize=(8, 2.6 * len(keys)), squeeze=False, sharex=True)
@@ -124,7 +138,7 @@ def _plot_time(before: Any, after: Any, keys: list[int], path: Path) -> None:
     plt.close(fig)
 
 
-def _plot_nodes(before: Any, after: Any, path: Path) -> None:
+def _plot_nodes(before: xr.Dataset, after: xr.Dataset, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 3))
@@ -158,10 +172,9 @@ def _plot_ranking(d: Diagnosis, path: Path) -> None:
     plt.close(fig)
 
 
-def _plot_signature(d: Diagnosis, trajectories: Sequence[Any], path: Path) -> bool:
+def _plot_signature(d: Diagnosis, trajectories: Sequence[xr.Dataset], path: Path) -> bool:
     """The first found effect's signature against the residual of pass 1 (module docstring)."""
     import matplotlib.pyplot as plt
-    from physics.effects import effect_from_config
 
     p = d.passes[0]
     if p.criticism.found is None:
@@ -193,7 +206,7 @@ def _plot_signature(d: Diagnosis, trajectories: Sequence[Any], path: Path) -> bo
     return True
 
 
-def write_report(d: Diagnosis, trajectories: Sequence[Any], out: "str | Path") -> list[Path]:
+def write_report(d: Diagnosis, trajectories: Sequence[xr.Dataset], out: str | Path) -> list[Path]:
     """Write report.txt, diagnosis.json and the figures of the module docstring to ``out``; returns the paths."""
     import matplotlib
 

@@ -1,0 +1,218 @@
+"""Named identification recipes: which searches run over the one driver, in what order, and what
+finishes them. ``identify(objective, budget=..., seed=...)`` without a decoder and grid runs
+:data:`DEFAULT_PRESET`, the best recipe measured (docs/benchmarks.md).
+
+::
+
+    preset        stage 1: latent grid          stage 2: full space (D-dim)            finish
+    handoff-gn    BO, ``latent`` evaluations    BO over Sobol θ, stage 1 carried        one Gauss-Newton step
+    handoff       BO, ``latent`` evaluations    BO over Sobol θ, stage 1 carried        -
+    bo-gn         -                             BO over Sobol θ                         one Gauss-Newton step
+    bo            -                             BO over Sobol θ                         -
+    random        -                             random Sobol θ                          -
+    latent        BO to the budget              -                                       -
+
+Budget: ``budget`` counts every evaluation, the finishing step's D + 1 + len(lengths) included
+(belief.least_squares.gauss_newton_step), so stage 2 runs to ``budget - step cost``. The latent
+stage needs a decoder over the objective's space: ``decoder=`` (a trained one,
+``tensegrid train-embedding``), else the pretrained one shipped for the T6's default box
+(embeddings.pretrained); with neither, ``handoff`` presets run without their latent stage and
+say so (:class:`PresetWarning`, ``result.config["stages"]``). The full space is searched over
+``candidates`` Sobol points when D > 4, else a regular grid of ``points_per_dim`` per axis.
+
+The finishing step moves θ off the candidates: when it lowers E, ``best_theta`` and
+``best_error`` are its point, and ``config["local_step"]`` records both errors and its cost. P
+stays the posterior over stage 2's cells (the step is not journalled; a resumed run repeats it).
+"""
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass, replace
+from typing import Any, Callable, Literal
+
+import numpy as np
+
+from belief.errors import BeliefError, BudgetError
+from belief.grid import Grid, SobolCandidates
+from belief.handoff import continue_in
+from belief.search import search
+from belief.least_squares import StepConfig, gauss_newton_step
+from belief.result import IdentificationResult
+from embeddings import Decoder, Identity
+from embeddings.pretrained import pretrained_decoder
+from physics.errors import NoResidualsError
+from physics.objective import Objective, ObjectiveFunction, as_objective
+from physics.parameters import ParameterSpace
+
+__all__ = ["Preset", "PRESETS", "DEFAULT_PRESET", "PresetWarning", "minimum_budget", "run_preset"]
+
+
+class PresetWarning(UserWarning):
+    """A preset ran without one of its stages (no latent decoder for this space, no residuals)."""
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A recipe: ``latent`` evaluations of BO in a decoder's grid (0: none), then ``search`` in the full
+    space ("bo", "random", or None to stay in the latent grid), then optionally ``local_step``."""
+
+    name: str
+    latent: int = 0
+    search: Literal["bo", "random"] | None = "bo"
+    local_step: bool = False
+    candidates: int = 4096
+    points_per_dim: int = 11
+
+    def __post_init__(self) -> None:
+        if self.latent < 0 or (self.search is None and self.latent != 0) or self.candidates < 1:
+            raise BeliefError(f"Preset {self.name!r}: latent must be >= 0 (0 when search is None: the latent stage "
+                              f"then runs to the budget) and candidates >= 1, got {self.latent}, {self.candidates}.")
+
+    @property
+    def uses_latent(self) -> bool:
+        return self.latent > 0 or self.search is None
+
+
+PRESETS: dict[str, Preset] = {p.name: p for p in (
+    Preset("handoff-gn", latent=15, local_step=True),
+    Preset("handoff", latent=15),
+    Preset("bo-gn", local_step=True),
+    Preset("bo"),
+    Preset("random", search="random"),
+    Preset("latent", search=None),
+)}
+
+#: the recipe ``identify`` runs when given no decoder and grid
+DEFAULT_PRESET = "handoff-gn"
+
+#: on_stage(name) is called as each stage starts: "latent", "search" or "local_step"
+OnStage = Callable[[str], None]
+
+
+def resolve(preset: "str | Preset") -> Preset:
+    """The :class:`Preset` named ``preset`` (or ``preset`` itself)."""
+    if isinstance(preset, Preset):
+        return preset
+    if preset not in PRESETS:
+        raise BeliefError(f"unknown preset {preset!r}; choose one of {sorted(PRESETS)} (belief.presets).")
+    return PRESETS[preset]
+
+
+def _latent_decoder(preset: Preset, objective: Objective, decoder: Decoder | None) -> tuple[Preset, Decoder | None]:
+    """The latent stage's decoder, or the preset without that stage (warned) when there is none."""
+    if not preset.uses_latent:
+        if decoder is not None:
+            raise BeliefError(f"preset {preset.name!r} searches the full space only; decoder= is for the presets "
+                              f"with a latent stage ({sorted(n for n, p in PRESETS.items() if p.uses_latent)}).")
+        return preset, None
+    found = decoder if decoder is not None else pretrained_decoder(objective.space)
+    if found is not None:
+        return preset, found
+    if preset.search is None:
+        raise BeliefError(f"preset {preset.name!r} searches a latent grid and needs decoder= (a trained decoder over "
+                          "the objective's space, `tensegrid train-embedding`); none is shipped for this space.")
+    warnings.warn(f"preset {preset.name!r}: no latent decoder for this parameter space (pass decoder=, written by "
+                  "`tensegrid train-embedding`); running it without the latent stage.", PresetWarning, stacklevel=3)
+    return replace(preset, latent=0), None
+
+
+def _step_cost(preset: Preset, space_dim: int, step: StepConfig) -> int:
+    return space_dim + 1 + len(step.lengths) if preset.local_step else 0
+
+
+def minimum_budget(preset: "str | Preset", space_dim: int, step: StepConfig = StepConfig()) -> int:
+    """The smallest budget ``preset`` runs with in a D = ``space_dim`` space: its latent evaluations, one
+    more (at least two: the posterior fits a GP) and its finishing step."""
+    recipe = resolve(preset)
+    return _step_cost(recipe, space_dim, step) + max(recipe.latent + 1, 2)
+
+
+def _full_space(space_dim: int, decoder: Identity, preset: Preset, seed: int) -> Grid | SobolCandidates:
+    if space_dim > 4:
+        return SobolCandidates.for_decoder(decoder, n=preset.candidates, seed=seed)
+    return Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim)
+
+
+def _latent_journal(journal: "str | os.PathLike[str] | None") -> str | None:
+    return None if journal is None else os.path.splitext(os.fspath(journal))[0] + "-latent.sqlite"
+
+
+def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, budget: int, seed: int,
+            journal: "str | os.PathLike[str] | None", on_stage: OnStage, options: dict[str, Any]) -> IdentificationResult:
+    """Stages 1 and 2 of the module docstring, ``budget`` evaluations in all."""
+    space = objective.space
+    if preset.search is None:
+        assert decoder is not None
+        on_stage("latent")
+        return search(objective, decoder, Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim),
+                              budget=budget, seed=seed, journal=journal, **options)
+    full = Identity(space)
+    if preset.latent == 0:
+        on_stage("search")
+        return search(objective, full, _full_space(space.dim, full, preset, seed), budget=budget, seed=seed,
+                              journal=journal, method=preset.search, **options)
+    assert decoder is not None
+    on_stage("latent")
+    quiet = {k: v for k, v in options.items() if k not in ("posterior_config", "verdict_config")}
+    first = search(objective, decoder, Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim),
+                           budget=preset.latent, seed=seed, journal=_latent_journal(journal), posterior=None, **quiet)
+    on_stage("search")
+    return continue_in(first, objective, full, budget=budget, seed=seed, n=preset.candidates, journal=journal,
+                       method=preset.search, **options)
+
+
+def _finish(result: IdentificationResult, objective: Objective, step: StepConfig) -> IdentificationResult:
+    """One Gauss-Newton step from the best θ; its point becomes the best when it lowers E. An
+    objective without residual vectors (a plain function) keeps the search's best, with a warning."""
+    start = np.asarray(result.best_theta.values, dtype=float)
+    try:
+        local = gauss_newton_step(objective, start, step)
+    except NoResidualsError as exc:
+        warnings.warn(f"preset {result.config['preset']!r}: the finishing Gauss-Newton step needs residual vectors "
+                      f"({exc}); the search's best θ is kept.", PresetWarning, stacklevel=3)
+        result.config["stages"] = result.config["stages"][:-1]
+        return result
+    result.config["local_step"] = {"start_error": float(local.start_error), "error": float(local.error),
+                                   "evaluations": int(local.evaluations), "improved": bool(local.error < result.best_error)}
+    if local.error < result.best_error:
+        result.best_theta = result.best_theta.copy(data=np.asarray(local.theta, dtype=float))
+        result.best_error = float(local.error)
+    return result
+
+
+def run_preset(objective: "Objective | ObjectiveFunction", preset: "str | Preset" = DEFAULT_PRESET, *, budget: int,
+               seed: int, decoder: Decoder | None = None, journal: "str | os.PathLike[str] | None" = None,
+               space: ParameterSpace | None = None, workers: int = 1, step: StepConfig = StepConfig(),
+               on_stage: OnStage | None = None, **options: Any) -> IdentificationResult:
+    """Identify θ by the recipe ``preset`` (module docstring) in ``budget`` evaluations.
+
+    ``decoder``: the latent stage's decoder (default: the pretrained one for this space, if any);
+    ``journal``: SQLite path of the full-space stage (the latent stage journals beside it, suffix
+    ``-latent``); ``space``, ``workers``: for a plain function θ -> E, wrapped once
+    (physics.objective.as_objective); ``on_stage(name)``: called as "latent", "search",
+    "local_step" start; ``options`` go to each stage (posterior_config, verdict_config, q,
+    n_init, time_budget, progress, ...; belief.search.search).
+    """
+    if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
+        raise BudgetError(f"budget must be >= 1 evaluation, got {budget!r}; a zero budget identifies nothing.")
+    objective = as_objective(objective, space, workers=workers)
+    recipe, latent = _latent_decoder(resolve(preset), objective, decoder)
+    on_stage = on_stage or (lambda name: None)
+    cost, least = _step_cost(recipe, objective.space.dim, step), minimum_budget(recipe, objective.space.dim, step)
+    search_budget = budget - cost
+    if budget < least:
+        raise BudgetError(f"budget={budget} is too small for preset {recipe.name!r}: {recipe.latent} latent "
+                          f"evaluations and a finishing step of {cost} leave too few for the search (the posterior "
+                          f"needs 2 evaluations); give at least {least}.")
+    result = _search(objective, recipe, latent, budget=search_budget, seed=seed, journal=journal, on_stage=on_stage,
+                     options=options)
+    result.config["preset"] = recipe.name
+    result.config["stages"] = ([f"latent ({type(latent).__name__}, {recipe.latent or search_budget} evaluations)"]
+                               if latent is not None else []) + \
+        ([f"{recipe.search} over the full space"] if recipe.search else []) + \
+        ([f"Gauss-Newton step ({cost} evaluations)"] if recipe.local_step else [])
+    if recipe.local_step:
+        on_stage("local_step")
+        result = _finish(result, objective, step)
+    return result

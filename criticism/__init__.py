@@ -1,0 +1,32 @@
+"""Model criticism: where the identified model misses the data, which physical effect it lacks,
+and whether adding that effect helps on held-out data.
+
+- :mod:`criticism.residuals`: residuals r_i = x_i - x̂_i by node, axis and time, labelled by phase
+  (rest, actuating, contact);
+- :mod:`criticism.search`: rank a catalog of effects (physics.effects) by the held-out error they
+  explain beyond re-tuning the model's own parameters (evidence as a BIC difference), verdict
+  "found" or "unexplained";
+- :mod:`criticism.diagnose`: the loop identify -> criticize -> add the effect -> re-identify;
+- :mod:`criticism.report`: the diagnosis as text, JSON and figures; :mod:`criticism.cli`: the
+  ``tensegrid diagnose`` command.
+
+criticism depends on belief (identification, posterior, least squares, noise), embeddings (the
+identity decoder) and physics (the effect-aware objective contract
+:class:`physics.effect_objective.EffectObjective`, the effects, the trajectory error); nothing
+below it imports criticism.
+"""
+from __future__ import annotations
+
+from criticism.diagnose import DiagnoseConfig, Diagnosis, Pass, diagnose, retuned_at_bounds, split_masks
+from criticism.errors import CriticismError
+from criticism.report import diagnosis_record, diagnosis_text, write_report
+from criticism.residuals import PHASES, PhaseRule, phases, residual_dataset, residual_summary
+from criticism.search import Candidate, Criticism, CriticismConfig, criticize, fit_effect, polish
+
+__all__ = [
+    "CriticismError",
+    "DiagnoseConfig", "Diagnosis", "Pass", "diagnose", "retuned_at_bounds", "split_masks",
+    "CriticismConfig", "Candidate", "Criticism", "criticize", "fit_effect", "polish",
+    "PHASES", "PhaseRule", "phases", "residual_dataset", "residual_summary",
+    "diagnosis_text", "diagnosis_record", "write_report",
+]
