@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install demo test bench pretrained clean
+.PHONY: install demo lint test bench pretrained clean
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -26,7 +26,13 @@ demo: $(STAMP)
 	$(BIN)/tensegrid simulate --out out/demo --theta $(DEMO_THETA) --noise 0.001 --seed 1
 	$(BIN)/tensegrid identify out/demo/trajectory.nc --budget 60 --out out/demo/identify
 
-test: $(STAMP)
+# ruff (pyflakes, pycodestyle, import order, bugbear, pyupgrade) over the library and the tutorials, mypy over
+# the library (the packages are listed in pyproject.toml); both configured in pyproject.toml.
+lint: $(STAMP)
+	$(BIN)/ruff check physics embeddings belief criticism planners docs
+	$(BIN)/mypy
+
+test: $(STAMP) lint
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=20
 
 bench: $(STAMP)

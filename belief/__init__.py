@@ -10,27 +10,23 @@ simulator, it only calls an objective θ -> E(θ).
 from __future__ import annotations
 
 from belief.acquisition import log_expected_improvement, log_h, select_cells
+from belief.belief import Belief
+from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
 from belief.errors import (
     BeliefError,
     BudgetError,
+    BudgetWarning,
     GridError,
     JournalError,
     ObjectiveError,
     SurrogateError,
 )
-from belief.belief import Belief
-from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
-from belief.errors import BudgetWarning
 from belief.grid import CandidateSet, Grid, SobolCandidates, candidates_from_config
-from belief.identify import identify
-from belief.presets import DEFAULT_PRESET, PRESETS, Preset, PresetWarning, run_preset
-from belief.search import problem_fingerprint, search
 from belief.handoff import Carried, carry_over, continue_in
+from belief.identify import identify
+from belief.journal import Journal, Record
 from belief.least_squares import LocalStep, StepConfig, gauss_newton_step
 from belief.noise import NOISE_RULES, EffectiveSize, effective_size, noise_var_from_residuals, segment_discrepancy
-from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, SobolDesign
-from belief.verdicts import VERDICTS, VerdictConfig
-from belief.journal import Journal, Record
 from belief.posterior import (
     FLOORS,
     PosteriorConfig,
@@ -43,9 +39,13 @@ from belief.posterior import (
     marginals,
     posterior_from_surrogate,
 )
+from belief.presets import DEFAULT_PRESET, PRESETS, Preset, PresetWarning, run_preset
+from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, SobolDesign
 from belief.result import IdentificationResult
 from belief.sampling import SamplingBelief
+from belief.search import problem_fingerprint, search
 from belief.surrogate import GPSurrogate, SurrogateConfig
+from belief.verdicts import VERDICTS, VerdictConfig
 
 __all__ = [
     "BeliefError", "BudgetError", "GridError", "JournalError", "ObjectiveError", "SurrogateError",
@@ -57,6 +57,7 @@ __all__ = [
     "FLOORS", "PosteriorConfig", "posterior_from_surrogate", "log_likelihood", "error_floor", "estimate_noise_var",
     "credible_mask", "credible_region", "entropy", "marginals",
     "Journal", "Record",
-    "identify", "search", "problem_fingerprint", "DEFAULT_PRESET", "PRESETS", "Preset", "PresetWarning", "run_preset", "IdentificationResult", "Carried", "carry_over", "continue_in",
+    "identify", "search", "problem_fingerprint", "DEFAULT_PRESET", "PRESETS", "Preset", "PresetWarning", "run_preset",
+    "IdentificationResult", "Carried", "carry_over", "continue_in",
     "LocalStep", "StepConfig", "gauss_newton_step", "AT_BOUND_TOLERANCE", "AtBound", "at_bounds",
 ]

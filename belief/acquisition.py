@@ -19,10 +19,15 @@ index, so the choice is a deterministic function of the data.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy.special import erfcx, ndtr
 
 from belief.errors import BeliefError
+
+if TYPE_CHECKING:                   # the GP (torch, pyro) loads only where it is fitted
+    from belief.surrogate import GPSurrogate
 
 __all__ = ["log_h", "log_expected_improvement", "select_cells"]
 
@@ -72,7 +77,7 @@ def log_expected_improvement(mean: np.ndarray, var: np.ndarray, best: float) -> 
 
 
 def select_cells(
-    surrogate: "object",
+    surrogate: GPSurrogate,
     points: np.ndarray,
     available: np.ndarray,
     *,

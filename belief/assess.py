@@ -29,8 +29,9 @@ belief.verdicts.trust_note; the summary prints it).
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -44,8 +45,17 @@ from belief.least_squares import gauss_newton_step
 from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate, SurrogateConfig
-from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, pinned, refit_conflicts,
-                             segment_conflicts, trust_note, verified_mass)
+from belief.verdicts import (
+    VerdictConfig,
+    budget_warning,
+    decide,
+    loglik_sd,
+    pinned,
+    refit_conflicts,
+    segment_conflicts,
+    trust_note,
+    verified_mass,
+)
 from embeddings.base import Decoder
 from physics.errors import NoResidualsError, PhysicsError
 from physics.objective import Objective
@@ -124,7 +134,7 @@ def _segment_marginals(records: Sequence[Record], grid: CandidateSet, theta_cell
     return out
 
 
-def _local_fit(objective: Objective, best_theta: np.ndarray, marg: xr.Dataset, noise: NoiseLevel,
+def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], marg: xr.Dataset, noise: NoiseLevel,
                cfg: VerdictConfig) -> tuple[dict[str, str], np.ndarray | None, dict[str, Any]]:
     """(conflicts, local ratio (D,) or None, info) of rule 5 (belief.verdicts) from one Gauss-Newton
     step of all parameters from the best evaluated θ.
@@ -149,7 +159,7 @@ def _local_fit(objective: Objective, best_theta: np.ndarray, marg: xr.Dataset, n
                            nats=cfg.refit_nats, fraction=cfg.refit_fraction), ratio, info
 
 
-def _pinned(space: ParameterSpace, best_theta: Sequence[float], local: dict[str, Any], marg: xr.Dataset,
+def _pinned(space: ParameterSpace, best_theta: np.ndarray | Sequence[float], local: dict[str, Any], marg: xr.Dataset,
             cfg: VerdictConfig, ratio: np.ndarray | None) -> tuple[AtBound, ...]:
     """Rule 6 (belief.verdicts): parameters the data narrow at a bound of the fitted θ, which is the
     local fit's θ′ when the step moved (its best point), else the best evaluated θ."""
@@ -177,8 +187,8 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     errors = np.array([r.error for r in ok])
     best = ok[int(np.argmin(errors))]
     segments = tuple(objective.segments)
-    parts = np.array([r.parts for r in ok], dtype=float) if segments and all(len(r.parts) == len(segments) for r in ok) \
-        else errors[:, None]
+    whole = bool(segments) and all(len(r.parts) == len(segments) for r in ok)
+    parts = np.array([r.parts for r in ok], dtype=float) if whole else errors[:, None]
     if parts.shape[1] != len(segments):
         segments = ("all",)
     noise = noise_level(objective, config, errors, parts, np.asarray(best.theta), dim=decoder.dim)
@@ -200,7 +210,8 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts=conflicts, config=vcfg)
     local: dict[str, Any] = {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"}
-    extra, ratio = {}, None
+    extra: dict[str, str] = {}
+    ratio: np.ndarray | None = None
     if vcfg.refit and any(v != "not identified" for v in verdicts):
         extra, ratio, local = _local_fit(objective, best.theta, marg, noise, vcfg)
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)

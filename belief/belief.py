@@ -29,7 +29,8 @@ import dataclasses
 import json
 import os
 import typing
-from typing import Any, Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -71,7 +72,7 @@ def _short(value: Any, limit: int = 80) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def _check_p(P: "xr.DataArray | np.ndarray", grid: CandidateSet) -> xr.DataArray:
+def _check_p(P: xr.DataArray | np.ndarray, grid: CandidateSet) -> xr.DataArray:
     """P as the canonical DataArray "P" over ``grid`` (its coordinates), after validation."""
     template = grid.to_dataarray(np.zeros(grid.size))
     if isinstance(P, xr.DataArray):
@@ -135,7 +136,7 @@ class Belief:
     the caller has it (else it is rebuilt from the config). Raises :class:`BeliefError`.
     """
 
-    def __init__(self, P: "xr.DataArray | np.ndarray", theta: np.ndarray, space: ParameterSpace, *,
+    def __init__(self, P: xr.DataArray | np.ndarray, theta: np.ndarray, space: ParameterSpace, *,
                  decoder_config: Mapping[str, Any], grid_config: Mapping[str, Any],
                  verdicts: Sequence[str] | None = None, reasons: Sequence[str] | None = None,
                  attrs: Mapping[str, Any] | None = None, level: float = 0.9,
@@ -169,7 +170,7 @@ class Belief:
     @classmethod
     def from_posterior(cls, P: xr.DataArray, decoder: Decoder, grid: CandidateSet, *,
                        verdicts: Sequence[str] | None = None, reasons: Sequence[str] | None = None,
-                       attrs: Mapping[str, Any] | None = None, level: float = 0.9) -> "Belief":
+                       attrs: Mapping[str, Any] | None = None, level: float = 0.9) -> Belief:
         """Belief of P over ``grid`` with θ = ``decoder.decode(grid.points)`` (``n x D``)."""
         if not isinstance(P, xr.DataArray):
             raise BeliefError(f"P must be an xarray.DataArray over the grid's dims {grid.dims} "
@@ -239,14 +240,15 @@ class Belief:
     @property
     def verdicts(self) -> dict[str, tuple[str, str]]:
         """parameter name -> (verdict, reason)."""
-        return {n: (v, r) for n, v, r in zip(self.space.names, self.verdict, self.reason)}
+        return {n: (v, r) for n, v, r in zip(self.space.names, self.verdict, self.reason, strict=True)}
 
     def entropy(self) -> float:
         """Shannon entropy -Σ P log P of P over the cells [nats] (0 for one cell, log n for uniform P)."""
         return entropy(self.P)
 
-    def sample_cells(self, n: int, *, seed: "int | np.random.Generator") -> np.ndarray:
-        """Indices of n cells drawn i.i.d. with probability P, shape ``n`` (int64); ``numpy.random.default_rng(seed)``."""
+    def sample_cells(self, n: int, *, seed: int | np.random.Generator) -> np.ndarray:
+        """Indices of n cells drawn i.i.d. with probability P, shape ``n`` (int64);
+        ``numpy.random.default_rng(seed)``."""
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
             raise BeliefError(f"n must be an integer >= 0 (number of draws), got {n!r}.")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer, np.random.Generator)):
@@ -255,7 +257,7 @@ class Belief:
         p = self.p
         return rng.choice(p.size, size=int(n), p=p / p.sum()).astype(np.int64)
 
-    def sample(self, n: int, *, seed: "int | np.random.Generator") -> np.ndarray:
+    def sample(self, n: int, *, seed: int | np.random.Generator) -> np.ndarray:
         """n draws of θ, ``n x D``: cells drawn with probability P (:meth:`sample_cells`), θ = their decoded centres."""
         return self.theta[self.sample_cells(n, seed=seed)]
 
@@ -267,7 +269,7 @@ class Belief:
         """The Grid or SobolCandidates of the cells, rebuilt from ``grid_config`` (``candidates_from_config``)."""
         return candidates_from_config(self.grid_config)
 
-    def summary(self, truth: Sequence[float] | None = None) -> str:
+    def summary(self, truth: np.ndarray | Sequence[float] | None = None) -> str:
         """Plain-text table: one row per parameter (unit, mean, interval, verdict; ``truth`` column if given);
         a parameter pinned at a bound has "(at lower/upper bound)" after its verdict, and the "Model
         inadequacy" block (belief.bounds.inadequacy_text) follows the table."""
@@ -291,7 +293,7 @@ class Belief:
         return "\n".join(lines + ([block] if block else []))
 
     def __repr__(self) -> str:
-        ident = [n for n, v in zip(self.space.names, self.verdict) if v == VERDICTS[0]]
+        ident = [n for n, v in zip(self.space.names, self.verdict, strict=True) if v == VERDICTS[0]]
         return f"Belief({self.n_cells} cells, {self.space.dim} parameters, identified: {ident or 'none'})"
 
     # ------------------------------------------------------------------ files
@@ -313,7 +315,7 @@ class Belief:
         return ds
 
     @classmethod
-    def from_dataset(cls, ds: xr.Dataset) -> "Belief":
+    def from_dataset(cls, ds: xr.Dataset) -> Belief:
         """Inverse of :meth:`to_dataset`; a Dataset that is not a belief raises :class:`BeliefError`."""
         if not isinstance(ds, xr.Dataset) or ds.attrs.get("format") != FORMAT:
             found = ds.attrs.get("format") if isinstance(ds, xr.Dataset) else type(ds).__name__
@@ -333,12 +335,12 @@ class Belief:
                    verdicts=[str(v) for v in ds["verdict"].values], reasons=[str(r) for r in ds["reason"].values],
                    attrs=configs[2], level=float(ds.attrs["level"]))
 
-    def save(self, path: "str | os.PathLike[str]") -> None:
+    def save(self, path: str | os.PathLike[str]) -> None:
         """Write to one netCDF4 file (xarray, engine netcdf4), overwriting ``path``."""
         self.to_dataset().to_netcdf(os.fspath(path), mode="w", engine="netcdf4")
 
     @classmethod
-    def load(cls, path: "str | os.PathLike[str]", *, group: str | None = None) -> "Belief":
+    def load(cls, path: str | os.PathLike[str], *, group: str | None = None) -> Belief:
         """Read a file written by :meth:`save` (or the netCDF ``group`` of a file that embeds one)."""
         path = os.fspath(path)
         if not os.path.exists(path):

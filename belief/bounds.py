@@ -16,8 +16,9 @@ summaries print.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -74,13 +75,14 @@ class AtBound:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, record: Mapping[str, Any]) -> "AtBound":
+    def from_dict(cls, record: Mapping[str, Any]) -> AtBound:
         """Inverse of :meth:`as_dict`; a record that is not one raises :class:`BeliefError`."""
         try:
             return cls(str(record["name"]), str(record["unit"]), str(record["side"]), float(record["bound"]),
                        float(record["value"]), float(record["nominal"]), str(record.get("source", "fit")))
         except (KeyError, TypeError, ValueError) as exc:
-            raise BeliefError(f"not an at-bound record ({exc}): {record!r}; write one with AtBound.as_dict().") from None
+            raise BeliefError(f"not an at-bound record ({exc}): {record!r}; write one with "
+                              "AtBound.as_dict().") from None
 
 
 def entries_from_records(records: Any, names: Sequence[str]) -> tuple[AtBound, ...]:
@@ -88,7 +90,8 @@ def entries_from_records(records: Any, names: Sequence[str]) -> tuple[AtBound, .
     if records is None:
         return ()
     if not isinstance(records, list):
-        raise BeliefError(f"at-bound records must be a list of AtBound.as_dict() records, got {type(records).__name__}.")
+        raise BeliefError("at-bound records must be a list of AtBound.as_dict() records, got "
+                          f"{type(records).__name__}.")
     entries = tuple(AtBound.from_dict(r) for r in records)
     unknown = sorted({e.name for e in entries} - set(names))
     if unknown:
@@ -109,8 +112,9 @@ def _sides(u: np.ndarray, tolerance: float) -> list[str | None]:
     return ["lower" if v <= tolerance + eps else "upper" if v >= 1.0 - tolerance - eps else None for v in u]
 
 
-def at_bounds(space: Any, theta: Sequence[float], *, tolerance: float = AT_BOUND_TOLERANCE, source: str = "fit",
-              start: Sequence[float] | None = None) -> tuple[AtBound, ...]:
+def at_bounds(space: Any, theta: np.ndarray | Sequence[float], *, tolerance: float = AT_BOUND_TOLERANCE,
+              source: str = "fit",
+              start: np.ndarray | Sequence[float] | None = None) -> tuple[AtBound, ...]:
     """The parameters of θ (shape ``D``, in ``space``'s order) within ``tolerance`` x width of a bound.
 
     ``space``: a physics ParameterSpace (names, units, nominal, lower, upper); ``source``:

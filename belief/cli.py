@@ -23,7 +23,8 @@ Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` an
 nominal, best and posterior-mean θ of the first trajectory for trajectory data), and journals to
 ``DIR/journal.sqlite`` (the latent stage to ``DIR/journal-latent.sqlite``) so an interrupted run
 resumes when re-run. When the data files carry the θ that generated them (simulated data do),
-the summary shows it next to P's intervals.
+the summary shows it next to P's intervals. The data files are checked first as by ``tensegrid check``
+(docs/data-format.md): an error stops the run before any evaluation, unless ``--skip-checks``.
 """
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ from belief.presets import DEFAULT_PRESET, PRESETS
 __all__ = ["register_identify", "run_identify"]
 
 
-def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
+def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``identify`` sub-command to a ``tensegrid`` argparse sub-parser collection."""
     p = subparsers.add_parser(
         "identify", help="identify physical parameters from a trajectory (Bayesian optimization, posterior P)",
@@ -68,7 +69,8 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
                    help="parallel evaluations of a batch (T6: dask worker processes; 1 = serial)")
     p.add_argument("--posterior", choices=["likelihood", "minimizer"], default="likelihood")
     p.add_argument("--loss", choices=["squared", "norm"], default="squared",
-                   help="T6 error: sum of squared residuals (default; what the likelihood posterior assumes) or of norms")
+                   help="T6 error: sum of squared residuals (default; what the likelihood posterior assumes) "
+                        "or of norms")
     p.add_argument("--windows", type=int, default=3,
                    help="T6 error: contiguous segments per trajectory whose errors sum to E (default 3)")
     p.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
@@ -80,6 +82,8 @@ def register_identify(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.add_argument("--skip-checks", action="store_true",
+                   help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
     p.set_defaults(func=run_identify)
 
 
@@ -137,6 +141,10 @@ def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
     from physics.trajectory import load_trajectory
 
     datasets = [load_trajectory(path) for path in args.data]
+    if not getattr(args, "skip_checks", False):
+        from physics.cli_check import preflight
+
+        preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
     objective = TrajectoryError(datasets, horizon=1, loss=args.loss, windows=args.windows,
                                 n_workers=args.workers if args.workers > 1 else 0)
     return objective, _data_truth(datasets, objective.space), datasets
@@ -188,11 +196,13 @@ def _run(args: argparse.Namespace, objective: Any) -> tuple[Any, Any, Any]:
     into the summary, not stderr."""
     import warnings
 
-    from belief.errors import BudgetWarning
+    from belief.errors import BeliefError, BudgetWarning
     from belief.posterior import PosteriorConfig
     from belief.presets import PresetWarning, run_preset
 
-    journal = None if (args.journal or "").lower() == "none" else (args.journal or os.path.join(args.out, "journal.sqlite"))
+    journal: str | None = args.journal or os.path.join(args.out, "journal.sqlite")
+    if journal is not None and journal.lower() == "none":
+        journal = None
     config = PosteriorConfig(mode=args.posterior, noise_var=args.noise_var, noise_rule=args.noise_rule,
                              discrepancy=args.discrepancy)
     decoder = _latent_decoder(args, objective.space)
@@ -204,6 +214,8 @@ def _run(args: argparse.Namespace, objective: Any) -> tuple[Any, Any, Any]:
                             workers=args.workers, progress=not args.no_progress)
     for note in caught:
         print(f"tensegrid identify: note: {note.message}", file=sys.stderr)
+    if result.belief is None:       # run_preset builds one whenever a posterior mode is set, as here
+        raise BeliefError("the identification returned no belief; the command line needs its posterior.")
     return result, result.belief.decoder(), result.belief.grid()
 
 

@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -154,7 +154,8 @@ def run(objective: Objective, decoder: Decoder, grid: CandidateSet, proposer: Pr
         if after_batch is not None:
             after_batch(n_before, hist, proposal)
 
-        def commit(k: int, row: Row, b: int = b) -> None:
+        def commit(k: int, row: Row, b: int = b, todo: list[int] = todo, zs: np.ndarray = zs,
+                   thetas: np.ndarray = thetas) -> None:
             rec = _record(b, todo[k], zs[k], thetas[k], row)
             if journal is not None:
                 journal.append(rec)

@@ -19,7 +19,8 @@ from __future__ import annotations
 import abc
 import json
 import warnings
-from typing import Any, Mapping, Sequence, TypeVar
+from collections.abc import Mapping, Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 import xarray as xr
@@ -36,7 +37,7 @@ MAX_CELLS = 20_000_000
 _C = TypeVar("_C", bound="CandidateSet")
 
 
-def _check_bounds(bounds: "np.ndarray | Sequence[Sequence[float]]") -> np.ndarray:
+def _check_bounds(bounds: np.ndarray | Sequence[Sequence[float]]) -> np.ndarray:
     b = np.asarray(bounds, dtype=float)
     if b.ndim != 2 or b.shape[1] != 2 or b.shape[0] < 1:
         raise GridError(f"bounds must have shape (d, 2) with d >= 1 (use decoder.bounds), got {b.shape}.")
@@ -59,7 +60,7 @@ class CandidateSet(abc.ABC):
         """Dimension names of the DataArray a flat vector of n values becomes."""
 
     @abc.abstractmethod
-    def to_dataarray(self, values: "np.ndarray", *, name: str | None = None) -> xr.DataArray:
+    def to_dataarray(self, values: np.ndarray, *, name: str | None = None) -> xr.DataArray:
         """Flat vector (n) -> DataArray over :attr:`dims` with the latent coordinates."""
 
     @abc.abstractmethod
@@ -68,7 +69,7 @@ class CandidateSet(abc.ABC):
 
     @classmethod
     @abc.abstractmethod
-    def from_config(cls: "type[_C]", config: Mapping[str, Any]) -> "_C":
+    def from_config(cls: type[_C], config: Mapping[str, Any]) -> _C:
         """The candidate set whose ``config()`` equals ``config``."""
 
     @property
@@ -91,7 +92,7 @@ class CandidateSet(abc.ABC):
     def latent_names(self) -> tuple[str, ...]:
         return tuple(f"z{i}" for i in range(self.dim))
 
-    def nearest(self, z: "np.ndarray") -> np.ndarray:
+    def nearest(self, z: np.ndarray) -> np.ndarray:
         """Index of the nearest cell (Euclidean in latent units) for each row of ``z`` (``m x d`` -> ``m``)."""
         zz = np.atleast_2d(np.asarray(z, dtype=float))
         if zz.shape[1] != self.dim:
@@ -107,7 +108,7 @@ class CandidateSet(abc.ABC):
             out[i] = best
         return out
 
-    def _check_values(self, values: "np.ndarray") -> np.ndarray:
+    def _check_values(self, values: np.ndarray) -> np.ndarray:
         v = np.asarray(values)
         if v.shape != (self.size,):
             raise GridError(f"values must be a flat vector of one value per cell, shape ({self.size},), got {v.shape}.")
@@ -122,16 +123,20 @@ class Grid(CandidateSet):
     cells in C order (last dimension fastest), matching ``to_dataarray``'s reshape.
     """
 
-    def __init__(self, bounds: "np.ndarray | Sequence[Sequence[float]]", *, points_per_dim: "int | Sequence[int]" = 11) -> None:
+    def __init__(self, bounds: np.ndarray | Sequence[Sequence[float]], *,
+                 points_per_dim: int | Sequence[int] = 11) -> None:
         self.bounds = _check_bounds(bounds)
         d = self.bounds.shape[0]
-        ppd = np.broadcast_to(np.asarray(points_per_dim), (d,)) if np.ndim(points_per_dim) == 0 else np.asarray(points_per_dim)
+        ppd = np.asarray(points_per_dim)
+        if ppd.ndim == 0:
+            ppd = np.broadcast_to(ppd, (d,))
         if ppd.shape != (d,) or not np.issubdtype(ppd.dtype, np.integer):
             raise GridError(f"points_per_dim must be an int or {d} ints, got {points_per_dim!r}.")
         if np.any(ppd < 1):
             raise GridError(f"points_per_dim must be >= 1 on every axis; {points_per_dim!r} gives an empty grid.")
         if np.any(ppd < 2):
-            raise GridError(f"points_per_dim must be >= 2 on every axis (a single node cannot span the box), got {points_per_dim!r}.")
+            raise GridError("points_per_dim must be >= 2 on every axis (a single node cannot span the box), got "
+                            f"{points_per_dim!r}.")
         n = int(np.prod(ppd.astype(float)))
         if n > MAX_CELLS:
             raise GridError(
@@ -139,13 +144,14 @@ class Grid(CandidateSet):
                 "use fewer points per dimension, a lower-dimensional decoder, or SobolCandidates."
             )
         self.points_per_dim = tuple(int(k) for k in ppd)
-        self.coords = tuple(np.linspace(lo, hi, k) for (lo, hi), k in zip(self.bounds, self.points_per_dim))
+        self.coords = tuple(np.linspace(lo, hi, k)
+                            for (lo, hi), k in zip(self.bounds, self.points_per_dim, strict=True))
         mesh = np.meshgrid(*self.coords, indexing="ij")
         self._points = np.stack([m.ravel() for m in mesh], axis=1)
         self._points.setflags(write=False)
 
     @classmethod
-    def for_decoder(cls, decoder: Decoder, *, points_per_dim: "int | Sequence[int]" = 11) -> "Grid":
+    def for_decoder(cls, decoder: Decoder, *, points_per_dim: int | Sequence[int] = 11) -> Grid:
         """Grid over ``decoder.bounds``."""
         return cls(decoder.bounds, points_per_dim=points_per_dim)
 
@@ -153,7 +159,7 @@ class Grid(CandidateSet):
     def dims(self) -> tuple[str, ...]:
         return self.latent_names
 
-    def nearest(self, z: "np.ndarray") -> np.ndarray:
+    def nearest(self, z: np.ndarray) -> np.ndarray:
         """Index of the nearest node for each row of ``z`` (``m x d`` -> ``m``), by rounding per axis."""
         zz = np.atleast_2d(np.asarray(z, dtype=float))
         if zz.shape[1] != self.dim:
@@ -167,17 +173,17 @@ class Grid(CandidateSet):
     def shape(self) -> tuple[int, ...]:
         return self.points_per_dim
 
-    def to_dataarray(self, values: "np.ndarray", *, name: str | None = None) -> xr.DataArray:
+    def to_dataarray(self, values: np.ndarray, *, name: str | None = None) -> xr.DataArray:
         """Flat vector (``n``) -> DataArray with dims ``z0 .. z{d-1}`` and the node values as coordinates."""
         v = self._check_values(values)
         return xr.DataArray(v.reshape(self.points_per_dim), dims=self.dims,
-                            coords={n: c for n, c in zip(self.dims, self.coords)}, name=name)
+                            coords={n: c for n, c in zip(self.dims, self.coords, strict=True)}, name=name)
 
     def config(self) -> dict[str, Any]:
         return {"kind": "grid", "bounds": self.bounds.tolist(), "points_per_dim": list(self.points_per_dim)}
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any]) -> "Grid":
+    def from_config(cls, config: Mapping[str, Any]) -> Grid:
         """The Grid whose ``config()`` equals ``config`` (kind "grid", ``bounds`` d x 2, ``points_per_dim``)."""
         _require(config, "grid", ("bounds", "points_per_dim"))
         return _same_config(cls(config["bounds"], points_per_dim=config["points_per_dim"]), config)
@@ -192,8 +198,8 @@ class SobolCandidates(CandidateSet):
     e.g. the previous estimate when a model is extended).
     """
 
-    def __init__(self, bounds: "np.ndarray | Sequence[Sequence[float]]", *, n: int, seed: int,
-                 include: "np.ndarray | Sequence[Sequence[float]] | None" = None) -> None:
+    def __init__(self, bounds: np.ndarray | Sequence[Sequence[float]], *, n: int, seed: int,
+                 include: np.ndarray | Sequence[Sequence[float]] | None = None) -> None:
         self.bounds = _check_bounds(bounds)
         if not isinstance(n, (int, np.integer)) or n < 1:
             raise GridError(f"SobolCandidates needs n >= 1 points, got {n!r} (an empty candidate set).")
@@ -217,17 +223,17 @@ class SobolCandidates(CandidateSet):
         self._points.setflags(write=False)
 
     @classmethod
-    def for_decoder(cls, decoder: Decoder, *, n: int, seed: int) -> "SobolCandidates":
+    def for_decoder(cls, decoder: Decoder, *, n: int, seed: int) -> SobolCandidates:
         return cls(decoder.bounds, n=n, seed=seed)
 
     @property
     def dims(self) -> tuple[str, ...]:
         return ("cell",)
 
-    def to_dataarray(self, values: "np.ndarray", *, name: str | None = None) -> xr.DataArray:
+    def to_dataarray(self, values: np.ndarray, *, name: str | None = None) -> xr.DataArray:
         """Flat vector (``n``) -> DataArray over ``cell`` with non-index coordinates ``z0 .. z{d-1}``."""
         v = self._check_values(values)
-        coords = {"cell": np.arange(self.size)}
+        coords: dict[str, Any] = {"cell": np.arange(self.size)}
         coords.update({zn: ("cell", self._points[:, i]) for i, zn in enumerate(self.latent_names)})
         return xr.DataArray(v, dims=("cell",), coords=coords, name=name)
 
@@ -238,7 +244,7 @@ class SobolCandidates(CandidateSet):
         return out
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any]) -> "SobolCandidates":
+    def from_config(cls, config: Mapping[str, Any]) -> SobolCandidates:
         """The SobolCandidates whose ``config()`` equals ``config`` (kind "sobol", ``bounds``, ``n``, ``seed``)."""
         _require(config, "sobol", ("bounds", "n", "seed"))
         return _same_config(cls(config["bounds"], n=config["n"], seed=config["seed"],
@@ -263,7 +269,8 @@ def _require(config: object, kind: str, keys: tuple[str, ...]) -> None:
         raise GridError(f"config must be a dict with kind {kind!r} (from config()), got {got!r}.")
     missing = [k for k in keys if k not in config]
     if missing:
-        raise GridError(f"the saved {kind} configuration lacks {missing} (has {sorted(config)}); save it with config().")
+        raise GridError(f"the saved {kind} configuration lacks {missing} (has {sorted(config)}); "
+                        "save it with config().")
 
 
 def _jsonable(value: object) -> object:

@@ -24,9 +24,9 @@ import numpy as np
 
 from belief.errors import BeliefError, BudgetError
 from belief.grid import SobolCandidates
-from belief.search import search
 from belief.journal import Record
 from belief.result import IdentificationResult
+from belief.search import search
 from embeddings.base import Decoder, EncodingDecoder
 from physics.objective import Objective, ObjectiveFunction
 
@@ -70,7 +70,7 @@ def carry_over(previous: IdentificationResult, decoder: Decoder, *, n: int, seed
     return Carried(grid, records)
 
 
-def continue_in(previous: IdentificationResult, objective: "Objective | ObjectiveFunction", decoder: Decoder, *,
+def continue_in(previous: IdentificationResult, objective: Objective | ObjectiveFunction, decoder: Decoder, *,
                 budget: int, seed: int, n: int = 4096, **options: Any) -> IdentificationResult:
     """Stage 2 of the module docstring: BO over ``decoder``'s box with the evaluations of ``previous``
     as its initial design; ``budget`` counts them (``budget`` - k new evaluations). ``options`` go to

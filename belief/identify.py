@@ -28,9 +28,9 @@ from physics.objective import Objective, ObjectiveFunction
 __all__ = ["identify"]
 
 
-def identify(objective: "Objective | ObjectiveFunction", decoder: Decoder | None = None,
+def identify(objective: Objective | ObjectiveFunction, decoder: Decoder | None = None,
              grid: CandidateSet | None = None, *, budget: int | None = None, seed: int,
-             preset: "str | Preset | None" = None, **options: Any) -> IdentificationResult:
+             preset: str | Preset | None = None, **options: Any) -> IdentificationResult:
     """Identify θ by ``preset`` (default :data:`belief.presets.DEFAULT_PRESET`), or by one search
     over ``grid`` with ``decoder`` when a grid is given (module docstring)."""
     if grid is None:

@@ -19,8 +19,9 @@ import json
 import math
 import os
 import sqlite3
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any, Iterator
+from typing import Any
 
 from belief.errors import JournalError
 from physics.objective import STATUSES
@@ -67,7 +68,7 @@ def _diff(a: Any, b: Any, prefix: str = "") -> list[str]:
 class Journal:
     """Append-only evaluation log in an SQLite file at ``path`` for the problem ``fingerprint`` (JSON-able dict)."""
 
-    def __init__(self, path: "str | os.PathLike[str]", fingerprint: dict[str, Any]) -> None:
+    def __init__(self, path: str | os.PathLike[str], fingerprint: dict[str, Any]) -> None:
         self.path = os.fspath(path)
         self.fingerprint = json.loads(_canonical(fingerprint))
         try:
@@ -81,7 +82,8 @@ class Journal:
             )
             row = self._con.execute("SELECT value FROM meta WHERE key='fingerprint'").fetchone()
         except sqlite3.DatabaseError as exc:
-            raise JournalError(f"{self.path!r} is not a tensegrid journal (SQLite error: {exc}); pass another path.") from None
+            raise JournalError(f"{self.path!r} is not a tensegrid journal (SQLite error: {exc}); "
+                               "pass another path.") from None
         if row is None:
             with self._transaction():
                 self._con.execute("INSERT INTO meta VALUES ('fingerprint', ?)", (_canonical(self.fingerprint),))
@@ -103,7 +105,7 @@ class Journal:
                     "resume it with the same space, decoder, grid, seed, method and options, or use a new journal path."
                 )
 
-    def _transaction(self) -> "sqlite3.Connection":
+    def _transaction(self) -> sqlite3.Connection:
         class _Tx:
             def __init__(s, con: sqlite3.Connection) -> None:
                 s.con = con
@@ -151,7 +153,7 @@ class Journal:
     def close(self) -> None:
         self._con.close()
 
-    def __enter__(self) -> "Journal":
+    def __enter__(self) -> Journal:
         return self
 
     def __exit__(self, *exc: Any) -> None:

@@ -17,8 +17,8 @@ the trust region then steps away from.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from scipy.optimize import least_squares as scipy_least_squares
@@ -26,7 +26,7 @@ from scipy.optimize import least_squares as scipy_least_squares
 from belief.errors import BeliefError
 from physics.objective import Objective
 
-__all__ = ["LeastSquaresConfig", "LocalFit", "refine", "StepConfig", "LocalStep", "gauss_newton_step"]
+__all__ = ["LeastSquaresConfig", "LocalFit", "refine", "StepConfig", "DEFAULT_STEP", "LocalStep", "gauss_newton_step"]
 
 
 @dataclass(frozen=True)
@@ -61,20 +61,23 @@ class LocalFit:
 
 def _flat(residuals: Sequence[np.ndarray], mask: np.ndarray) -> np.ndarray:
     """The residuals of the masked segments as one vector, NaN (not compared) as 0."""
-    return np.nan_to_num(np.concatenate([np.ravel(r) for r, m in zip(residuals, mask) if m]), nan=0.0)
+    return np.nan_to_num(np.concatenate([np.ravel(r) for r, m in zip(residuals, mask, strict=True) if m]), nan=0.0)
 
 
 class _Problem:
     """r(u) and J(u) of the masked segments for scipy, each θ evaluated once (cached)."""
 
-    def __init__(self, objective: Objective, theta: np.ndarray, indices: list[int], mask: np.ndarray, step: float) -> None:
+    def __init__(self, objective: Objective, theta: np.ndarray, indices: list[int], mask: np.ndarray,
+                 step: float) -> None:
         self.objective, self.theta, self.indices, self.mask, self.step = objective, theta, indices, mask, step
-        self.lower, self.width = objective.space.lower[indices], objective.space.upper[indices] - objective.space.lower[indices]
+        self.lower = objective.space.lower[indices]
+        self.width = objective.space.upper[indices] - self.lower
         self.cache: dict[bytes, list[np.ndarray] | None] = {}
         self.evaluations = 0
         start = self.full(self.unit(theta[indices]))
         if start is None:
-            raise BeliefError("least-squares refinement cannot start: the simulation at the starting θ diverged or failed.")
+            raise BeliefError("least-squares refinement cannot start: the simulation at the starting θ diverged "
+                              "or failed.")
         self.penalty = 10.0 * _flat(start, mask) + 1e-12
 
     def unit(self, values: np.ndarray) -> np.ndarray:
@@ -92,7 +95,7 @@ class _Problem:
         if new:
             results = self.objective.residuals_batch(self.thetas(us[new]))
             self.evaluations += len(new)
-            for k, res in zip(new, results):
+            for k, res in zip(new, results, strict=True):
                 self.cache[keys[k]] = res
         return [self.cache[key] for key in keys]
 
@@ -108,7 +111,7 @@ class _Problem:
         steps = np.where(u + self.step <= 1.0, self.step, -self.step)
         shifted = np.repeat(np.asarray(u, float)[None], len(u), axis=0) + np.diag(steps)
         columns = [np.zeros_like(r0) if res is None else (_flat(res, self.mask) - r0) / h
-                   for res, h in zip(self.evaluate(shifted), steps)]
+                   for res, h in zip(self.evaluate(shifted), steps, strict=True)]
         return np.stack(columns, axis=1)
 
     def best(self) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -118,7 +121,7 @@ class _Problem:
         return np.frombuffer(key, dtype=float), res
 
 
-def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask: Sequence[bool],
+def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask: np.ndarray | Sequence[bool],
            config: LeastSquaresConfig = LeastSquaresConfig()) -> LocalFit:
     """Refine θ[indices] (θ (D,)) on the segments ``mask`` (S,) by bounded least squares (module
     docstring) from the objective's ``residuals_batch``. Raises BeliefError if the simulation at θ
@@ -158,6 +161,10 @@ class StepConfig:
                 or not (0 < self.step < 0.5) or not (self.ridge >= 0):
             raise BeliefError(f"StepConfig needs 0 < radius <= 1, step lengths in (0, 1], 0 < step < 0.5 and "
                               f"ridge >= 0, got {self.radius}, {self.lengths}, {self.step}, {self.ridge}.")
+
+
+#: the default finishing step (frozen, so one instance serves as every default argument)
+DEFAULT_STEP = StepConfig()
 
 
 @dataclass(frozen=True)

@@ -46,8 +46,8 @@ keeps that value; the rules apply when it is unknown.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -130,7 +130,7 @@ def effective_size(residuals: Sequence[np.ndarray]) -> EffectiveSize:
         n += rows * arr.shape[1]
     if n == 0:
         raise BeliefError("effective_size: every residual row is NaN; nothing was compared.")
-    n_eff = float(sum(c * t / tau for c, t, tau in zip(coords, samples, taus)))
+    n_eff = float(sum(c * t / tau for c, t, tau in zip(coords, samples, taus, strict=True)))
     return EffectiveSize(tuple(samples), tuple(taus), tuple(coords), n, min(n_eff, float(n)))
 
 

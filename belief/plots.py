@@ -8,7 +8,8 @@
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
 __all__ = ["plot_error_trace", "plot_marginals", "plot_posterior_2d"]
 
 
-def plot_error_trace(result: IdentificationResult, path: "str | os.PathLike[str]", *, label: str | None = None) -> None:
+def plot_error_trace(result: IdentificationResult, path: str | os.PathLike[str], *, label: str | None = None) -> None:
     """Scatter E per evaluation (failed ones marked at the top) and the running minimum; log y axis if E > 0."""
     h = result.history
     err = h["error"].values
@@ -51,8 +52,8 @@ def plot_error_trace(result: IdentificationResult, path: "str | os.PathLike[str]
 
 
 def plot_marginals(
-    P: xr.DataArray, theta: np.ndarray, space: ParameterSpace, path: "str | os.PathLike[str]", *,
-    marginals: xr.Dataset | None = None, truth: Sequence[float] | None = None, bins: int = 30,
+    P: xr.DataArray, theta: np.ndarray, space: ParameterSpace, path: str | os.PathLike[str], *,
+    marginals: xr.Dataset | None = None, truth: np.ndarray | Sequence[float] | None = None, bins: int = 30,
 ) -> None:
     """One panel per parameter: histogram of θ_j weighted by P (``theta``: decoded cells ``n x D``) vs the
     prior, the credible interval shaded and the verdict under the title when ``marginals`` has them."""
@@ -88,8 +89,8 @@ def plot_marginals(
 
 
 def plot_posterior_2d(
-    P: xr.DataArray, path: "str | os.PathLike[str]", *, decoder: Decoder | None = None,
-    evaluated: np.ndarray | None = None, truth: Sequence[float] | None = None,
+    P: xr.DataArray, path: str | os.PathLike[str], *, decoder: Decoder | None = None,
+    evaluated: np.ndarray | None = None, truth: np.ndarray | Sequence[float] | None = None,
     ridge: Callable[[np.ndarray], np.ndarray] | None = None, title: str = "posterior P",
 ) -> None:
     """Image of a 2-D P (dims z0, z1); axes in θ units when ``decoder`` maps z linearly (Identity).
@@ -101,7 +102,7 @@ def plot_posterior_2d(
         raise ValueError(f"plot_posterior_2d needs a 2-D P, got dims {P.dims}.")
     z0, z1 = P[P.dims[0]].values, P[P.dims[1]].values
     x, y = z0, z1
-    xl, yl = P.dims[0], P.dims[1]
+    xl, yl = str(P.dims[0]), str(P.dims[1])
     to_xy = lambda z: z  # noqa: E731
     if isinstance(decoder, Identity):
         lo, hi = decoder.space.lower, decoder.space.upper

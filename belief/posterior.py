@@ -58,7 +58,7 @@ P is an ``xarray.DataArray`` named "P" over the grid dims, non-negative, summing
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import xarray as xr

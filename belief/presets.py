@@ -28,17 +28,18 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any, Callable, Literal
+from typing import Any, Literal
 
 import numpy as np
 
 from belief.errors import BeliefError, BudgetError
 from belief.grid import Grid, SobolCandidates
 from belief.handoff import continue_in
-from belief.search import search
-from belief.least_squares import StepConfig, gauss_newton_step
+from belief.least_squares import DEFAULT_STEP, StepConfig, gauss_newton_step
 from belief.result import IdentificationResult
+from belief.search import search
 from embeddings import Decoder, Identity
 from embeddings.pretrained import pretrained_decoder
 from physics.errors import NoResidualsError
@@ -90,7 +91,7 @@ DEFAULT_PRESET = "handoff-gn"
 OnStage = Callable[[str], None]
 
 
-def resolve(preset: "str | Preset") -> Preset:
+def resolve(preset: str | Preset) -> Preset:
     """The :class:`Preset` named ``preset`` (or ``preset`` itself)."""
     if isinstance(preset, Preset):
         return preset
@@ -121,7 +122,7 @@ def _step_cost(preset: Preset, space_dim: int, step: StepConfig) -> int:
     return space_dim + 1 + len(step.lengths) if preset.local_step else 0
 
 
-def minimum_budget(preset: "str | Preset", space_dim: int, step: StepConfig = StepConfig()) -> int:
+def minimum_budget(preset: str | Preset, space_dim: int, step: StepConfig = DEFAULT_STEP) -> int:
     """The smallest budget ``preset`` runs with in a D = ``space_dim`` space: its latent evaluations, one
     more (at least two: the posterior fits a GP) and its finishing step."""
     recipe = resolve(preset)
@@ -134,12 +135,12 @@ def _full_space(space_dim: int, decoder: Identity, preset: Preset, seed: int) ->
     return Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim)
 
 
-def _latent_journal(journal: "str | os.PathLike[str] | None") -> str | None:
+def _latent_journal(journal: str | os.PathLike[str] | None) -> str | None:
     return None if journal is None else os.path.splitext(os.fspath(journal))[0] + "-latent.sqlite"
 
 
 def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, budget: int, seed: int,
-            journal: "str | os.PathLike[str] | None", on_stage: OnStage, options: dict[str, Any]) -> IdentificationResult:
+            journal: str | os.PathLike[str] | None, on_stage: OnStage, options: dict[str, Any]) -> IdentificationResult:
     """Stages 1 and 2 of the module docstring, ``budget`` evaluations in all."""
     space = objective.space
     if preset.search is None:
@@ -174,16 +175,17 @@ def _finish(result: IdentificationResult, objective: Objective, step: StepConfig
         result.config["stages"] = result.config["stages"][:-1]
         return result
     result.config["local_step"] = {"start_error": float(local.start_error), "error": float(local.error),
-                                   "evaluations": int(local.evaluations), "improved": bool(local.error < result.best_error)}
+                                   "evaluations": int(local.evaluations),
+                                   "improved": bool(local.error < result.best_error)}
     if local.error < result.best_error:
         result.best_theta = result.best_theta.copy(data=np.asarray(local.theta, dtype=float))
         result.best_error = float(local.error)
     return result
 
 
-def run_preset(objective: "Objective | ObjectiveFunction", preset: "str | Preset" = DEFAULT_PRESET, *, budget: int,
-               seed: int, decoder: Decoder | None = None, journal: "str | os.PathLike[str] | None" = None,
-               space: ParameterSpace | None = None, workers: int = 1, step: StepConfig = StepConfig(),
+def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = DEFAULT_PRESET, *, budget: int,
+               seed: int, decoder: Decoder | None = None, journal: str | os.PathLike[str] | None = None,
+               space: ParameterSpace | None = None, workers: int = 1, step: StepConfig = DEFAULT_STEP,
                on_stage: OnStage | None = None, **options: Any) -> IdentificationResult:
     """Identify θ by the recipe ``preset`` (module docstring) in ``budget`` evaluations.
 

@@ -24,8 +24,9 @@ every proposer fills the batch it is given.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol, Sequence, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from scipy.stats import qmc
@@ -35,8 +36,8 @@ from belief.grid import CandidateSet
 from belief.journal import Record
 from belief.surrogate import GPSurrogate, SurrogateConfig
 
-__all__ = ["Proposal", "Proposer", "RandomProposer", "SobolDesign", "WarmStart", "BOProposer", "Acquisition", "sobol_design",
-           "fit_surrogate"]
+__all__ = ["Proposal", "Proposer", "RandomProposer", "SobolDesign", "WarmStart", "BOProposer", "Acquisition",
+           "sobol_design", "fit_surrogate"]
 
 class Acquisition(Protocol):
     """Which q cells to evaluate next: ``(model, points (n x d), available (n,) bool, *, q, prediction)``

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -104,9 +105,14 @@ class IdentificationResult:
             raise BeliefError("this result has no posterior (identify(..., posterior=None)).")
         return credible_region(self.belief.P, level=level)
 
-    def summary(self, truth: "np.ndarray | None" = None) -> str:
+    def summary(self, truth: np.ndarray | None = None) -> str:
         """Plain-text table of the marginals and verdicts (``truth``: a column of the true θ)."""
         tail = f"best error {self.best_error:.6g} after {self.n_evaluations} evaluations"
+        step = self.config.get("local_step")
+        if step:                                        # a preset's finishing step (belief.presets)
+            tail += (f" and the finishing Gauss-Newton step ({step['evaluations']} simulations: E "
+                     f"{step['start_error']:.6g} -> {step['error']:.6g}"
+                     + (", its point is the best θ)" if step["improved"] else ", no lower; the best θ is kept)"))
         if self.belief is None:
             return tail + " (no posterior)"
         warn = self.belief.attrs.get("budget_warning")
@@ -118,7 +124,7 @@ class IdentificationResult:
         tail += f"\nwarning: {trust}" if trust else ""
         return self.belief.summary(truth=truth) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")
 
-    def save(self, path: "str | os.PathLike[str]") -> None:
+    def save(self, path: str | os.PathLike[str]) -> None:
         """Write the result to one netCDF4 file: root (config, best θ), groups ``belief`` and ``history``."""
         path = os.fspath(path)
         root = xr.Dataset(attrs={"config": json.dumps(self.config), "best_error": float(self.best_error),
@@ -130,7 +136,7 @@ class IdentificationResult:
         self.history.to_netcdf(path, mode="a", group="history", engine="netcdf4")
 
     @classmethod
-    def load(cls, path: "str | os.PathLike[str]") -> "IdentificationResult":
+    def load(cls, path: str | os.PathLike[str]) -> IdentificationResult:
         """Read a file written by :meth:`save`."""
         path = os.fspath(path)
         if not os.path.exists(path):

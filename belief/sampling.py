@@ -37,6 +37,6 @@ class SamplingBelief(Protocol):
         """Probabilities of the rows of ``theta``, shape (n,), summing to 1."""
         ...
 
-    def sample(self, n: int, *, seed: "int | np.random.Generator") -> np.ndarray:
+    def sample(self, n: int, *, seed: int | np.random.Generator) -> np.ndarray:
         """n draws of θ, shape (n, D), a function of ``seed``."""
         ...

@@ -53,7 +53,8 @@ import hashlib
 import json
 import math
 import os
-from typing import Any, Callable, Literal, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
@@ -98,7 +99,7 @@ def problem_fingerprint(
     return fp
 
 
-def _validate_problem(objective: "Objective | ObjectiveFunction", decoder: Decoder, grid: CandidateSet,
+def _validate_problem(objective: Objective | ObjectiveFunction, decoder: Decoder, grid: CandidateSet,
                       space: ParameterSpace | None, workers: int) -> tuple[Objective, ParameterSpace]:
     """The objective (a plain function wrapped once, on ``workers`` threads) and its parameter space,
     after checking that objective, decoder and grid fit together."""
@@ -186,7 +187,7 @@ def _carried_fingerprint(carry: Sequence[Record]) -> dict[str, Any]:
     return {"n": len(carry), "sha256": hashlib.sha256(text.encode()).hexdigest()}
 
 
-def _posterior_config(posterior: str | None, posterior_config: PosteriorConfig | None,
+def _posterior_config(posterior: Literal["likelihood", "minimizer"] | None, posterior_config: PosteriorConfig | None,
                       noise_var: float | None) -> PosteriorConfig:
     if posterior is not None and posterior_config is not None and posterior_config.mode != posterior:
         raise BeliefError(
@@ -222,13 +223,13 @@ def _callback_hook(callback: Callable[[int, xr.DataArray], None] | None, objecti
 
 
 def search(
-    objective: "Objective | ObjectiveFunction",
+    objective: Objective | ObjectiveFunction,
     decoder: Decoder,
     grid: CandidateSet,
     *,
     budget: int | None = None,
     seed: int,
-    journal: "str | os.PathLike[str] | None" = None,
+    journal: str | os.PathLike[str] | None = None,
     time_budget: float | None = None,
     method: Literal["bo", "random"] = "bo",
     proposer: Proposer | None = None,
@@ -251,12 +252,14 @@ def search(
     ``objective``: a physics.objective.Objective, or a plain function θ (shape ``D``) -> E (float)
     on ``space`` (wrapped in FunctionObjective, batches on ``workers`` threads); ``decoder``: an
     ``embeddings.Decoder``; ``grid``: a belief.grid.CandidateSet (``belief.Grid`` or
-    ``belief.SobolCandidates``) over ``decoder.bounds``. ``budget``: evaluations; ``time_budget``: seconds (either or both); ``seed``: all randomness; ``journal``: SQLite path,
+    ``belief.SobolCandidates``) over ``decoder.bounds``. ``budget``: evaluations; ``time_budget``:
+    seconds (either or both); ``seed``: all randomness; ``journal``: SQLite path,
     resumed if it exists; ``method``: built-in proposer, or ``proposer=`` any belief.proposers.Proposer;
     ``q``: cells per batch; ``n_init``: initial design size (default max(5, d + 1)); ``posterior``:
     mode of P, or None to skip it; ``noise_var``: σ² of the likelihood mode (default: the
     objective's, else ``posterior_config.noise_rule``); ``verdict_config``: thresholds of the
-    verdicts (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check); ``callback(n_evaluations, P)``: called
+    verdicts (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check);
+    ``callback(n_evaluations, P)``: called
     before every batch with a fitted surrogate (one extra pass over the grid per batch); ``carry``:
     evaluations made before this run, as batch 0 (belief.handoff builds them; ``n_init`` is their number).
     """
@@ -294,7 +297,8 @@ def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: Dri
     records = out.records
     ok = [r for r in records if r.status == "ok"]
     if not records:
-        raise BudgetError(f"time_budget={extra.get('time_budget')!r} s was spent before the first evaluation; raise it.")
+        raise BudgetError(f"time_budget={extra.get('time_budget')!r} s was spent before the first evaluation; "
+                          "raise it.")
     if not ok:
         raise ObjectiveError(
             f"all {len(records)} evaluations failed (first: {records[0].message}); the parameter box may be "

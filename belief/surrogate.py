@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import contextlib
 import copy
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Iterator
 
 import numpy as np
 import pyro
@@ -78,7 +78,8 @@ class SurrogateConfig:
             raise BeliefError(f"SurrogateConfig.max_iter must be an int >= 1, got {self.max_iter!r}.")
         if not (0 < self.jitter <= self.max_jitter):
             raise BeliefError(
-                f"SurrogateConfig needs 0 < jitter <= max_jitter, got jitter={self.jitter!r}, max_jitter={self.max_jitter!r}."
+                f"SurrogateConfig needs 0 < jitter <= max_jitter, got jitter={self.jitter!r}, "
+                f"max_jitter={self.max_jitter!r}."
             )
         if not (self.noise_init > 0):
             raise BeliefError(f"SurrogateConfig.noise_init must be > 0, got {self.noise_init!r}.")
@@ -116,7 +117,8 @@ class _Matern52(gp.kernels.Matern52):
         ls = self.lengthscale
         s5r = torch.cdist(self._slice_input(X) / ls, self._slice_input(Z) / ls,
                           compute_mode="donot_use_mm_for_euclid_dist").mul_(5.0**0.5)
-        return (s5r.square() / 3.0 + s5r + 1.0).mul_(torch.exp(-s5r)).mul_(self.variance)
+        # pyro annotates the kernel's variance as its PyroParam declaration; read, it is a Tensor
+        return (s5r.square() / 3.0 + s5r + 1.0).mul_(torch.exp(-s5r)).mul_(self.variance)  # type: ignore[arg-type]
 
 
 def _augment(u: torch.Tensor, query: bool) -> torch.Tensor:
@@ -172,6 +174,9 @@ class GPSurrogate:
     ``best_t_`` (smallest observed t), ``n_`` (number of data).
     """
 
+    shift_: float | None
+    _pred_cache_: _PredictionCache | None
+
     def __init__(self, bounds: np.ndarray, *, config: SurrogateConfig | None = None) -> None:
         b = np.asarray(bounds, dtype=float)
         if b.ndim != 2 or b.shape[1] != 2 or np.any(b[:, 0] >= b[:, 1]):
@@ -206,19 +211,20 @@ class GPSurrogate:
         t = lambda v: torch.as_tensor(v, dtype=_DT)  # noqa: E731
         ls0 = float(np.clip(0.3 * np.sqrt(d), 0.2, 2.0))
         kernel = _Matern52(input_dim=d, variance=t(1.0), lengthscale=torch.full((d,), ls0, dtype=_DT))
-        kernel.lengthscale = PyroSample(
+        # pyro's annotations declare these attributes PyroParam; PyroModule also accepts a PyroSample (a prior)
+        kernel.lengthscale = PyroSample(  # type: ignore[assignment]
             dist.LogNormal(t(np.sqrt(2.0) + 0.5 * np.log(d)), t(np.sqrt(3.0))).expand([d]).to_event(1)
         )
-        kernel.variance = PyroSample(dist.LogNormal(t(0.0), t(1.0)))
+        kernel.variance = PyroSample(dist.LogNormal(t(0.0), t(1.0)))  # type: ignore[assignment]
         model = gp.models.GPRegression(X, y, kernel, noise=t(self.config.noise_init), jitter=jitter)
-        model.noise = PyroSample(dist.LogNormal(t(np.log(1e-4)), t(2.0)))
+        model.noise = PyroSample(dist.LogNormal(t(np.log(1e-4)), t(2.0)))  # type: ignore[assignment]
         # deterministic initial values (the autoguide would otherwise draw them from the prior)
         kernel.lengthscale_map = PyroParam(torch.full((d,), ls0, dtype=_DT), constraints.positive)
         kernel.variance_map = PyroParam(t(1.0), constraints.positive)
         model.noise_map = PyroParam(t(self.config.noise_init), constraints.positive)
         return model
 
-    def fit(self, z: np.ndarray, errors: np.ndarray) -> "GPSurrogate":
+    def fit(self, z: np.ndarray, errors: np.ndarray) -> GPSurrogate:
         """Fit to latent points ``z`` (``n x d``) and errors ``E`` (``n``, finite); returns self."""
         Z = np.asarray(z, dtype=float)
         E = np.asarray(errors, dtype=float)
@@ -292,7 +298,7 @@ class GPSurrogate:
         self._check_fitted()
         with _torch_context(self.config.num_threads), torch.no_grad():
             self.gp_.set_mode("guide")
-            return float(self.gp_.noise)
+            return float(self.gp_.noise)  # type: ignore[arg-type]  # a Tensor when read; pyro annotates the PyroParam
 
     # ------------------------------------------------------------------ prediction
     def _prediction_cache(self) -> _PredictionCache:
@@ -379,7 +385,7 @@ class GPSurrogate:
             m, c = self.gp_(self._scale(Zq), full_cov=True, noiseless=True)
         return m.numpy() * self.t_std_ + self.t_mean_, c.numpy() * self.t_std_**2
 
-    def fantasize(self, z: np.ndarray, t: np.ndarray) -> "GPSurrogate":
+    def fantasize(self, z: np.ndarray, t: np.ndarray) -> GPSurrogate:
         """A copy conditioned on extra pseudo-observations (``k x d``, ``k`` in t units), same hyperparameters.
 
         Used by the kriging-believer batch (belief.acquisition): no refit, only new data.

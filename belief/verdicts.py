@@ -64,8 +64,8 @@ numbers when it is not met.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
@@ -73,8 +73,8 @@ import xarray as xr
 from belief.bounds import AT_BOUND_TOLERANCE, AtBound
 from belief.errors import BeliefError
 
-__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "default_verdicts", "loglik_sd", "verified_mass", "segment_conflicts",
-           "refit_conflicts", "pinned", "unsupported", "trust_note", "decide", "budget_warning"]
+__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "default_verdicts", "loglik_sd", "verified_mass",
+           "segment_conflicts", "refit_conflicts", "pinned", "unsupported", "trust_note", "decide", "budget_warning"]
 
 VERDICTS = ("identified", "weakly identified", "not identified")
 
@@ -109,11 +109,13 @@ class VerdictConfig:
             raise BeliefError(f"VerdictConfig needs 0 < identified_ratio <= weak_ratio <= 1, got "
                               f"{self.identified_ratio!r} and {self.weak_ratio!r}.")
         if not (np.isfinite(self.max_loglik_sd) and self.max_loglik_sd > 0):
-            raise BeliefError(f"VerdictConfig.max_loglik_sd must be a positive number of nats, got {self.max_loglik_sd!r}.")
+            raise BeliefError("VerdictConfig.max_loglik_sd must be a positive number of nats, got "
+                              f"{self.max_loglik_sd!r}.")
         if not (0 <= self.min_verified_mass <= 1):
             raise BeliefError(f"VerdictConfig.min_verified_mass must lie in [0, 1], got {self.min_verified_mass!r}.")
         if not isinstance(self.evaluations_per_dim, int) or self.evaluations_per_dim < 0:
-            raise BeliefError(f"VerdictConfig.evaluations_per_dim must be an int >= 0, got {self.evaluations_per_dim!r}.")
+            raise BeliefError("VerdictConfig.evaluations_per_dim must be an int >= 0, got "
+                              f"{self.evaluations_per_dim!r}.")
 
 
 def reach_reason(reach: float) -> str:
@@ -133,7 +135,7 @@ def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
     cfg = VerdictConfig()
     verdicts, reasons = [], []
     reach = marg["reach"].values if "reach" in marg else np.ones(marg.sizes["parameter"])
-    for std, prior, spread in zip(marg["std"].values, marg["prior_std"].values, reach):
+    for std, prior, spread in zip(marg["std"].values, marg["prior_std"].values, reach, strict=True):
         if not prior > 0:
             verdicts.append(VERDICTS[2])
             reasons.append("the decoder does not vary it over the cells (prior std 0): P says nothing about it")
@@ -168,6 +170,12 @@ def verified_mass(p: np.ndarray, sd: np.ndarray, *, max_sd: float) -> float:
     return float(np.sum(np.asarray(p, dtype=float)[np.asarray(sd) <= max_sd]))
 
 
+def _interval(marginals: xr.Dataset, name: str) -> str:
+    """The credible interval of parameter ``name`` as "[lower, upper]"."""
+    m = marginals.sel(parameter=name)
+    return f"[{float(m['lower']):.4g}, {float(m['upper']):.4g}]"
+
+
 def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified_ratio: float) -> dict[str, str]:
     """Parameters whose credible intervals from two segments are disjoint while both are narrow.
 
@@ -180,18 +188,17 @@ def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified
         ma = segment_marginals[a]
         for b in names[a_i + 1:]:
             mb = segment_marginals[b]
-            narrow = ((ma["std"] < identified_ratio * ma["prior_std"]) & (mb["std"] < identified_ratio * mb["prior_std"]))
+            narrow = (ma["std"] < identified_ratio * ma["prior_std"]) & (mb["std"] < identified_ratio * mb["prior_std"])
             apart = (ma["upper"] < mb["lower"]) | (mb["upper"] < ma["lower"])
             for name in ma["parameter"].values[(narrow & apart).values]:
                 key = str(name)
                 if key not in out:
-                    out[key] = (f"its best value moves between segments: {a} gives [{float(ma['lower'].sel(parameter=key)):.4g}, "
-                                f"{float(ma['upper'].sel(parameter=key)):.4g}], {b} gives "
-                                f"[{float(mb['lower'].sel(parameter=key)):.4g}, {float(mb['upper'].sel(parameter=key)):.4g}]")
+                    out[key] = (f"its best value moves between segments: {a} gives {_interval(ma, key)}, "
+                                f"{b} gives {_interval(mb, key)}")
     return out
 
 
-def refit_conflicts(marginals: xr.Dataset, theta: Sequence[float], error: float, start_error: float, *,
+def refit_conflicts(marginals: xr.Dataset, theta: np.ndarray | Sequence[float], error: float, start_error: float, *,
                     noise_var: float | None, nats: float,
                     fraction: float = VerdictConfig.refit_fraction) -> dict[str, str]:
     """Parameters whose interval excludes a significantly better local fit θ′ (module docstring, rule 5a).
@@ -221,7 +228,7 @@ def refit_conflicts(marginals: xr.Dataset, theta: Sequence[float], error: float,
 
 
 def pinned(marginals: xr.Dataset, found: Sequence[AtBound], *, weak_ratio: float,
-           local_ratio: Sequence[float] | None = None) -> tuple[AtBound, ...]:
+           local_ratio: np.ndarray | Sequence[float] | None = None) -> tuple[AtBound, ...]:
     """The entries of ``found`` (belief.bounds.at_bounds of the fitted θ) whose parameter the data
     narrow (module docstring, rule 6): ratio < ``weak_ratio``, the ratio being the larger of
     std / prior_std in ``marginals`` and ``local_ratio`` (D,) of rule 5b when given."""
@@ -243,7 +250,7 @@ def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
             f"embedding for sharper answers.")
 
 
-def unsupported(marginals: xr.Dataset, best_theta: Sequence[float]) -> dict[str, str]:
+def unsupported(marginals: xr.Dataset, best_theta: np.ndarray | Sequence[float]) -> dict[str, str]:
     """Parameters whose credible interval excludes the best evaluated θ (module docstring, rule 4).
 
     ``marginals``: Dataset with ``lower``, ``upper`` over ``parameter``; ``best_theta``: θ̂ (D,).
@@ -278,9 +285,9 @@ def _ratio(marg: xr.Dataset, j: int, local: float) -> tuple[float, str]:
                    f"{local:.0%} of the box's std: the decoder holds fixed what trades off with it)")
 
 
-def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: Sequence[float], verified: float,
-               best_mass: float, config: VerdictConfig | None = None,
-               local_ratio: Sequence[float] | None = None) -> str:
+def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: np.ndarray | Sequence[float],
+               verified: float, best_mass: float, config: VerdictConfig | None = None,
+               local_ratio: np.ndarray | Sequence[float] | None = None) -> str:
     """Why P cannot be trusted, for the summary, or "" when it can (module docstring, rules 3-4).
 
     Said when some parameter the data narrow (ratio < ``weak_ratio``, rules 1 and 5b) has an interval
@@ -294,7 +301,7 @@ def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: Se
     narrow = [n for j, n in enumerate(names) if float(marginals["prior_std"].values[j]) > 0
               and _ratio(marginals, j, float(local[j]))[0] < cfg.weak_ratio]
     bad = [n for n in narrow if n in unsupported(marginals, best_theta)]
-    kept = [n for n, v in zip(names, verdicts) if v != VERDICTS[2]]
+    kept = [n for n, v in zip(names, verdicts, strict=True) if v != VERDICTS[2]]
     where = (f"{verified:.0%} of P's mass lies on cells whose likelihood the GP knows to {cfg.max_loglik_sd:g} nat "
              f"and {best_mass:.1%} on the best evaluation")
     if bad:
@@ -306,9 +313,9 @@ def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: Se
     return ""
 
 
-def decide(marginals: xr.Dataset, *, best_theta: Sequence[float], verified: float,
+def decide(marginals: xr.Dataset, *, best_theta: np.ndarray | Sequence[float], verified: float,
            conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None,
-           local_ratio: Sequence[float] | None = None) -> tuple[list[str], list[str]]:
+           local_ratio: np.ndarray | Sequence[float] | None = None) -> tuple[list[str], list[str]]:
     """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 0-5; rule 6 enters
     through ``conflicts``; rule 4, :func:`unsupported`, applies to every parameter the data narrow).
 

@@ -10,6 +10,7 @@ from typing import Any
 
 from criticism.diagnose import DiagnoseConfig, diagnose
 from criticism.report import diagnosis_text, write_report
+from physics.cli_check import preflight
 from physics.effects import EFFECT_TYPES
 from physics.errors import ParameterError
 from physics.trajectory import describe_trajectory, load_trajectory
@@ -17,7 +18,7 @@ from physics.trajectory import describe_trajectory, load_trajectory
 __all__ = ["register_diagnose", "run_diagnose"]
 
 
-def register_diagnose(subparsers: "argparse._SubParsersAction[Any]") -> None:
+def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``tensegrid diagnose``."""
     p = subparsers.add_parser(
         "diagnose", help="find the effect the model lacks: identify, criticize, add it, re-identify",
@@ -36,14 +37,18 @@ def register_diagnose(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.add_argument("--candidates", type=int, default=2048, help="Sobol candidates per identification")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-progress", action="store_true", help="hide progress bars")
+    p.add_argument("--skip-checks", action="store_true",
+                   help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
     p.set_defaults(func=run_diagnose)
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
-    """Load the trajectory files, run :func:`~criticism.diagnose.diagnose`, print and write the report
-    (report.txt, diagnosis.json, figures) to ``--out``; returns the exit status 0."""
+    """Load and check the trajectory files (physics.checks), run :func:`~criticism.diagnose.diagnose`, print
+    and write the report (report.txt, diagnosis.json, figures) to ``--out``; returns the exit status 0."""
     data = [load_trajectory(path) for path in args.data]
-    for path, ds in zip(args.data, data):
+    if not getattr(args, "skip_checks", False):
+        preflight(data, args.data, "diagnose")       # raises DataCheckError (exit 2) before any identification
+    for path, ds in zip(args.data, data, strict=True):
         print(f"{path}: " + "; ".join(describe_trajectory(ds)))
     effects = None
     if args.effects is not None:

@@ -28,9 +28,10 @@ builds up, while over one sample sensor noise dominates.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -105,7 +106,7 @@ class Pass:
         if self.theta_after is None:
             return {}
         names = self.names_after[len(self.names):]
-        after = dict(zip(self.names_after, self.theta_after.tolist()))
+        after = dict(zip(self.names_after, self.theta_after.tolist(), strict=True))
         out: dict[str, dict[str, Any]] = {n: {"value": after[n]} for n in names}
         if self.belief_after is not None:
             m = self.belief_after.marginals()
@@ -166,7 +167,7 @@ def _held_errors(objective: Objective, theta: np.ndarray, held: np.ndarray) -> d
     """Held-out E per trajectory (name "t{k}") at θ."""
     parts = np.asarray(objective.evaluate_parts(theta), float)
     out: dict[str, float] = {}
-    for name, value, h in zip(objective.segments, parts, held):
+    for name, value, h in zip(objective.segments, parts, held, strict=True):
         if h:
             key = name.split("/")[0]
             out[key] = out.get(key, 0.0) + float(value)

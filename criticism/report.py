@@ -13,8 +13,9 @@ Figures (written to the output directory):
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -89,8 +90,9 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
     return {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
             "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
                         "added": p.added, "held_after": p.held_after, "estimates": p.estimates(),
-                        "theta_after": None if p.theta_after is None else dict(zip(p.names_after, p.theta_after.tolist())),
-                        "theta": dict(zip(p.names, p.theta.tolist())),
+                        "theta_after": None if p.theta_after is None
+                        else dict(zip(p.names_after, p.theta_after.tolist(), strict=True)),
+                        "theta": dict(zip(p.names, p.theta.tolist(), strict=True)),
                         "at_bounds": [a.as_dict() for a in p.at_bounds]} for p in d.passes]}
 
 
@@ -124,7 +126,7 @@ def _plot_time(before: xr.Dataset, after: xr.Dataset, keys: list[int], path: Pat
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(len(keys), 1, figsize=(8, 2.6 * len(keys)), squeeze=False, sharex=True)
-    for ax, k in zip(axes[:, 0], keys):
+    for ax, k in zip(axes[:, 0], keys, strict=True):
         b, a = before.where(before.trajectory == k, drop=True), after.where(after.trajectory == k, drop=True)
         _shade(ax, b)
         ax.plot(b["time"], 1e3 * b["norm"], label="before", color="tab:gray")
@@ -197,8 +199,8 @@ def _plot_signature(d: Diagnosis, trajectories: Sequence[xr.Dataset], path: Path
     ax.plot(t, 1e3 * norm, color="tab:green", ls="--", label=f"||signature|| of {effect.name}")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("[mm]")
-    ax.set_title(f"trajectory {k}: {effect.name} at " + ", ".join(f"{n}={v:.3g}" for n, v in p.criticism.found.values.items()),
-                 fontsize=9)
+    found = ", ".join(f"{n}={v:.3g}" for n, v in p.criticism.found.values.items())
+    ax.set_title(f"trajectory {k}: {effect.name} at {found}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

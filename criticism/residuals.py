@@ -72,7 +72,7 @@ def residual_dataset(objective: EffectObjective, theta: np.ndarray, rule: PhaseR
     predictions at θ when already computed (one simulation fewer)."""
     preds = predictions if predictions is not None else objective.predictions(theta)
     blocks, skipped = [], []
-    for k, (ds, pred) in enumerate(zip(objective.trajectories, preds)):
+    for k, (ds, pred) in enumerate(zip(objective.trajectories, preds, strict=True)):
         r = np.asarray(ds["nodes"].transpose("time", "node", "axis").values, float) - np.asarray(pred.values, float)
         keep = np.isfinite(r).all(axis=(1, 2))
         compared = np.isfinite(np.asarray(pred.values)).all(axis=(1, 2))
@@ -104,5 +104,5 @@ def residual_summary(res: xr.Dataset) -> dict[str, Any]:
     node_share = (sq.sum(("sample", "axis")) / total).values if total > 0 else np.zeros(12)
     axis_share = (sq.sum(("sample", "node")) / total).values if total > 0 else np.zeros(3)
     return {"phases": by_phase, "top_nodes": [int(i) for i in np.argsort(-node_share)[:3]],
-            "node_share": node_share.tolist(), "axis_share": dict(zip("xyz", axis_share.tolist())),
+            "node_share": node_share.tolist(), "axis_share": dict(zip("xyz", axis_share.tolist(), strict=True)),
             "skipped": list(res.attrs.get("skipped", [])), "samples": int(res.sizes["sample"])}

@@ -47,8 +47,9 @@ segments into *fit* segments F and *held-out* segments H:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -225,8 +226,8 @@ def _rescore(c: Candidate, base: tuple[float, float], k: int | None = None) -> C
 
 def _sizes(residuals: Sequence[np.ndarray], fit: np.ndarray, held: np.ndarray) -> tuple[float, float]:
     """Effective residual counts (K_F, K_H) of the residuals (S arrays) on the fit and held-out segments."""
-    return (effective_size([r for r, f in zip(residuals, fit) if f]).n_eff,
-            effective_size([r for r, h in zip(residuals, held) if h]).n_eff)
+    return (effective_size([r for r, f in zip(residuals, fit, strict=True) if f]).n_eff,
+            effective_size([r for r, h in zip(residuals, held, strict=True) if h]).n_eff)
 
 
 def polish(objective: Objective, theta: np.ndarray, fit: np.ndarray, config: CriticismConfig = CriticismConfig(),
@@ -245,8 +246,9 @@ def _screen(objective: EffectObjective, theta: np.ndarray, parts: np.ndarray, ef
     values = {extended.space.names[j]: float(fitted[j]) for j in indices}
     k_fit, k_held = (_sizes(extended.residuals(fitted), fit, held) if np.isfinite(eparts).all()
                      else (math.nan, math.nan))
-    c = _candidate(effect.name, "effect", values, eparts, fit, held, (float(parts[fit].sum()), float(parts[held].sum())),
-                   k_fit, k_held, len(indices), effect.config())
+    before = (float(parts[fit].sum()), float(parts[held].sum()))
+    c = _candidate(effect.name, "effect", values, eparts, fit, held, before, k_fit, k_held, len(indices),
+                   effect.config())
     return replace(c, theta=tuple(float(v) for v in fitted))
 
 
@@ -379,7 +381,7 @@ def criticize(objective: EffectObjective, theta: np.ndarray, *, fit: np.ndarray 
     theta, parts = result.theta, result.parts
     n_fit, n_held = _sizes(result.residuals, fit_mask, held_mask)
     base = (float(parts[fit_mask].sum()), float(parts[held_mask].sum()))
-    moved = {n: float(v) for n, v, v0 in zip(objective.space.names, theta, start) if v != v0}
+    moved = {n: float(v) for n, v, v0 in zip(objective.space.names, theta, start, strict=True) if v != v0}
     start_base = (float(start_parts[fit_mask].sum()), float(start_parts[held_mask].sum()))
     floor = _candidate("re-tuned model", "floor", moved, parts, fit_mask, held_mask, start_base, n_fit, n_held,
                        len(moved), {})

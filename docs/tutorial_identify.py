@@ -114,7 +114,7 @@ def t6(out: str, *, quick: bool) -> None:
               f"at θ* {objective(theta_star):.4g}")
     m = result.marginals
     err = (m["mean"].values - theta_star) / (space.upper - space.lower)
-    for name, e, verdict in zip(space.names, err, m["verdict"].values):
+    for name, e, verdict in zip(space.names, err, m["verdict"].values, strict=True):
         print(f"  {name:<16} posterior mean - θ* = {100 * e:+6.1f} % of the box ({verdict})")
     plot_marginals(result.posterior, decoder.decode(grid.points), space, os.path.join(out, "t6_marginals.png"),
                    marginals=m, truth=theta_star)

@@ -8,8 +8,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from physics import FlopController, ParameterSpace, TrajectoryError, load_trajectory, save_trajectory, simulate
 from physics.plotting import plot_trajectory
 

@@ -19,11 +19,12 @@ from typing import Any
 from embeddings.base import Decoder, EncodingDecoder
 from embeddings.errors import EmbeddingError
 from embeddings.identity import Identity
-from embeddings.rembo import REMBO
 from embeddings.registry import decoder_from_config, load_decoder, register_decoder, registered_kinds
+from embeddings.rembo import REMBO
 
-_LAZY = {"VAE": "embeddings.vae", "ActiveSubspace": "embeddings.active", "DynamicsAutoencoder": "embeddings.autoencoder",
-         "DynamicsNetwork": "embeddings.dynamics", "Transitions": "embeddings.transitions",
+_LAZY = {"VAE": "embeddings.vae", "ActiveSubspace": "embeddings.active",
+         "DynamicsAutoencoder": "embeddings.autoencoder", "DynamicsNetwork": "embeddings.dynamics",
+         "Transitions": "embeddings.transitions",
          "push_transitions": "embeddings.transitions", "TrainingConfig": "embeddings.networks",
          "T6DataConfig": "embeddings.t6_data", "t6_transitions": "embeddings.t6_data"}
 

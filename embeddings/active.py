@@ -17,7 +17,8 @@ grid in z is a grid along known directions and every decoded θ is a plain linea
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import torch
@@ -50,7 +51,7 @@ class ActiveSubspace(EncodingDecoder):
 
     @classmethod
     def fit(cls, space: ParameterSpace, dynamics: DynamicsNetwork, data: Transitions, *, dim: int = 5,
-            rows: int = 4000, seed: int = 0) -> "ActiveSubspace":
+            rows: int = 4000, seed: int = 0) -> ActiveSubspace:
         """Eigenvectors of C over ``rows`` random training rows (all when fewer); see the module docstring."""
         if not isinstance(dim, (int, np.integer)) or not 1 <= dim <= space.dim:
             raise EmbeddingError(f"ActiveSubspace dim must be an integer in [1, {space.dim}], got {dim!r}.")
@@ -69,7 +70,7 @@ class ActiveSubspace(EncodingDecoder):
         return cls(space, W, explained=float(values[order[:dim]].sum() / values.sum()))
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> "ActiveSubspace":
+    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> ActiveSubspace:
         """The decoder whose ``config()`` equals ``config``."""
         require_keys(config, ("kind", "basis", "explained", "names", "lower", "upper"), kind="active")
         decoder = cls(space, np.asarray(config["basis"], dtype=float), explained=config["explained"])

@@ -25,13 +25,14 @@ on each side. Search then runs BO over a grid in that box and decodes with the d
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import torch
 
-from embeddings.dynamics import DynamicsNetwork
 from embeddings.base import EncodingDecoder
+from embeddings.dynamics import DynamicsNetwork
 from embeddings.errors import EmbeddingError
 from embeddings.networks import TrainingConfig, mlp, pack_weights, seeded, train, unpack_weights
 from embeddings.registry import register_decoder
@@ -85,7 +86,7 @@ class DynamicsAutoencoder(TrainedDecoder, EncodingDecoder):
             unpack_weights(self.encoder_net, extra["encoder"])
 
     def fit(self, dynamics: DynamicsNetwork, data: Transitions, *, training: TrainingConfig | None = None,
-            progress: bool = False) -> "DynamicsAutoencoder":
+            progress: bool = False) -> DynamicsAutoencoder:
         """Train encoder and decoder through the frozen ``dynamics`` on ``data``; set the latent box; returns self."""
         training = training or TrainingConfig(epochs=100, batch_size=256, lr=3e-3)
         if dynamics.space.names != self.space.names:

@@ -18,8 +18,9 @@ from __future__ import annotations
 import abc
 import json
 import os
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping, TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -31,7 +32,7 @@ __all__ = ["Decoder", "EncodingDecoder", "write_json"]
 _Self = TypeVar("_Self", bound="Decoder")
 
 
-def write_json(path: "str | os.PathLike[str]", record: Any) -> Path:
+def write_json(path: str | os.PathLike[str], record: Any) -> Path:
     """Write ``record`` as JSON through a temporary file, so a killed write leaves no half file."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -69,7 +70,7 @@ class Decoder(abc.ABC):
     def from_config(cls: type[_Self], config: Mapping[str, Any], space: ParameterSpace) -> _Self:
         """The decoder on ``space`` whose ``config()`` equals ``config`` (EmbeddingError otherwise)."""
 
-    def decode(self, z: "np.ndarray") -> np.ndarray:
+    def decode(self, z: np.ndarray) -> np.ndarray:
         """θ = decoder(z): ``n x d`` -> ``n x D`` (a single ``d`` vector gives a ``D`` vector).
 
         Raises :class:`EmbeddingError` for a wrong shape, NaN, or points outside ``bounds``.
@@ -99,10 +100,10 @@ class Decoder(abc.ABC):
         """What :meth:`save` writes: ``{"decoder": config()}`` (trained decoders add their training state)."""
         return {"decoder": self.config()}
 
-    def restore(self, record: Mapping[str, Any]) -> None:
+    def restore(self, record: Mapping[str, Any]) -> None:  # noqa: B027 (an optional hook, not abstract)
         """Restore what :meth:`record` holds beyond ``config()`` after a load; nothing by default."""
 
-    def save(self, path: "str | os.PathLike[str]") -> Path:
+    def save(self, path: str | os.PathLike[str]) -> Path:
         """Write :meth:`record` as JSON (atomically); ``embeddings.load_decoder(path, space)`` reads it back."""
         return write_json(path, self.record())
 

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 __all__ = ["register_train_embedding", "run_train_embedding"]
 
 
-def register_train_embedding(subparsers: "argparse._SubParsersAction[Any]") -> None:
+def register_train_embedding(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``train-embedding`` sub-command to a ``tensegrid`` argparse sub-parser collection."""
     p = subparsers.add_parser("train-embedding", help="train a decoder (VAE, dynamics-aware autoencoder) and save it",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -53,14 +53,14 @@ def register_train_embedding(subparsers: "argparse._SubParsersAction[Any]") -> N
     p.set_defaults(func=run_train_embedding)
 
 
-def _space(args: argparse.Namespace) -> "ParameterSpace":
+def _space(args: argparse.Namespace) -> ParameterSpace:
     from physics.parameters import ParameterSpace
     from physics.push import push_space
 
     return push_space() if args.toy == "push" else ParameterSpace.t6()
 
 
-def _transitions(args: argparse.Namespace, space: "ParameterSpace") -> "Transitions":
+def _transitions(args: argparse.Namespace, space: ParameterSpace) -> Transitions:
     from embeddings.t6_data import DEFAULT_CACHE, T6DataConfig, t6_transitions
     from embeddings.transitions import push_transitions
 
@@ -76,7 +76,7 @@ def _transitions(args: argparse.Namespace, space: "ParameterSpace") -> "Transiti
                           progress=not args.no_progress)
 
 
-def _train(args: argparse.Namespace) -> "TrainedDecoder":
+def _train(args: argparse.Namespace) -> TrainedDecoder:
     from embeddings.autoencoder import DynamicsAutoencoder
     from embeddings.dynamics import DynamicsNetwork
     from embeddings.networks import TrainingConfig
@@ -86,8 +86,8 @@ def _train(args: argparse.Namespace) -> "TrainedDecoder":
     dim = args.dim or (1 if push else 5)
     progress = not args.no_progress
     if args.kind == "vae":
-        decoder = VAE(space, dim=dim, hidden=args.hidden or 400)
-        return decoder.fit(args.samples, training=TrainingConfig(epochs=args.epochs, seed=args.seed), progress=progress)
+        vae = VAE(space, dim=dim, hidden=args.hidden or 400)
+        return vae.fit(args.samples, training=TrainingConfig(epochs=args.epochs, seed=args.seed), progress=progress)
     data = _transitions(args, space)
     train, test = data.split(0.2, seed=args.seed)
     dynamics = DynamicsNetwork(space, hidden=(64, 128, 64) if push else (128, 64, 32))
@@ -97,8 +97,8 @@ def _train(args: argparse.Namespace) -> "TrainedDecoder":
     print(f"dynamics network: held-out MSE {score.mse:.4g} vs {score.baseline_mse:.4g} predicting the mean "
           f"(ratio {score.ratio:.3f}) on {len(test)} rows of {len(set(test.group))} held-out trajectories")
     dynamics.save(Path(args.out).with_suffix(".dynamics.json"))
-    decoder = DynamicsAutoencoder(space, dim=dim, hidden=args.hidden or (32 if push else 10))
-    return decoder.fit(dynamics, train, training=TrainingConfig(epochs=args.epochs, batch_size=128, lr=3e-3,
+    autoencoder = DynamicsAutoencoder(space, dim=dim, hidden=args.hidden or (32 if push else 10))
+    return autoencoder.fit(dynamics, train, training=TrainingConfig(epochs=args.epochs, batch_size=128, lr=3e-3,
                                                                 seed=args.seed), progress=progress)
 
 

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import torch
@@ -34,6 +35,11 @@ __all__ = ["DynamicsNetwork", "DynamicsScore"]
 
 class _Net(nn.Module):
     """MLP on standardized inputs with the standardization constants as buffers."""
+
+    x_mean: torch.Tensor
+    x_std: torch.Tensor
+    y_mean: torch.Tensor
+    y_std: torch.Tensor
 
     def __init__(self, n_theta: int, n_context: int, n_target: int, hidden: Sequence[int]) -> None:
         super().__init__()
@@ -77,10 +83,12 @@ class DynamicsNetwork:
 
     def _require(self) -> _Net:
         if self.net is None:
-            raise EmbeddingError("DynamicsNetwork is not trained: call fit(transitions) or DynamicsNetwork.load(path, space).")
+            raise EmbeddingError("DynamicsNetwork is not trained: call fit(transitions) or "
+                                 "DynamicsNetwork.load(path, space).")
         return self.net
 
-    def fit(self, data: Transitions, *, training: TrainingConfig | None = None, progress: bool = False) -> "DynamicsNetwork":
+    def fit(self, data: Transitions, *, training: TrainingConfig | None = None,
+            progress: bool = False) -> DynamicsNetwork:
         """Train on ``data`` (its θ must live in this network's space); returns self."""
         training = training or TrainingConfig(epochs=100, batch_size=256, lr=1e-3)
         u = torch.as_tensor(data.unit_theta(self.space), dtype=torch.float32)
@@ -154,7 +162,7 @@ class DynamicsNetwork:
         mean = net.y_mean.numpy() if train_mean is None else np.asarray(train_mean)
         return DynamicsScore(float(np.mean((pred - test.target) ** 2)), float(np.mean((mean - test.target) ** 2)))
 
-    def save(self, path: "str | os.PathLike[str]") -> Path:
+    def save(self, path: str | os.PathLike[str]) -> Path:
         """JSON with the architecture, names, packed weights (with sha256) and loss history."""
         net = self._require()
         record = {"kind": "dynamics-network", "hidden": list(self.hidden), "names": list(self.space.names),
@@ -164,7 +172,7 @@ class DynamicsNetwork:
         return write_json(path, record)
 
     @classmethod
-    def load(cls, path: "str | os.PathLike[str]", space: ParameterSpace) -> "DynamicsNetwork":
+    def load(cls, path: str | os.PathLike[str], space: ParameterSpace) -> DynamicsNetwork:
         """A network saved with :meth:`save`, on ``space`` (names and bounds must match)."""
         try:
             record: dict[str, Any] = json.loads(Path(path).read_text())

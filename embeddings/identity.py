@@ -1,7 +1,8 @@
 """The identity decoder: the latent box is the unit cube of the parameter space, θ = lower + z (upper - lower)."""
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -20,7 +21,7 @@ class Identity(EncodingDecoder):
         self.space = space
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> "Identity":
+    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> Identity:
         """The Identity on ``space`` whose ``config()`` equals ``config`` (names and bounds must match ``space``).
 
         Raises :class:`~embeddings.errors.EmbeddingError` naming missing or differing keys.

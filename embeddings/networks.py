@@ -12,8 +12,9 @@ from __future__ import annotations
 import base64
 import contextlib
 import hashlib
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 import torch
@@ -25,6 +26,8 @@ __all__ = ["mlp", "seeded", "pack_weights", "unpack_weights", "TrainingConfig", 
 
 _ACTIVATIONS: dict[str, Callable[[], nn.Module]] = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU}
 
+_M = TypeVar("_M", bound=nn.Module)
+
 
 def mlp(sizes: Sequence[int], *, activation: str = "relu", last: bool = False) -> nn.Sequential:
     """Linear layers ``sizes[0] -> sizes[1] -> ... -> sizes[-1]`` with ``activation`` between them
@@ -34,7 +37,7 @@ def mlp(sizes: Sequence[int], *, activation: str = "relu", last: bool = False) -
     if len(sizes) < 2 or any(int(s) < 1 for s in sizes):
         raise EmbeddingError(f"layer sizes must be at least two positive integers, got {list(sizes)!r}.")
     layers: list[nn.Module] = []
-    for k, (a, b) in enumerate(zip(sizes[:-1], sizes[1:])):
+    for k, (a, b) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
         layers.append(nn.Linear(int(a), int(b)))
         if last or k < len(sizes) - 2:
             layers.append(_ACTIVATIONS[activation]())
@@ -60,14 +63,15 @@ def pack_weights(module: nn.Module) -> dict[str, Any]:
     return {"dtype": "float32", "tensors": tensors, "sha256": digest.hexdigest()}
 
 
-def unpack_weights(module: nn.Module, packed: Any) -> nn.Module:
+def unpack_weights(module: _M, packed: Any) -> _M:
     """Load :func:`pack_weights` output into ``module`` (same architecture); returns the module.
 
     Raises :class:`EmbeddingError` for a malformed record, a digest that does not match the bytes,
     or tensors that do not fit the architecture.
     """
     if not isinstance(packed, dict) or not {"tensors", "sha256"} <= set(packed):
-        raise EmbeddingError("saved weights must be a dict with 'tensors' and 'sha256' (embeddings.networks.pack_weights).")
+        raise EmbeddingError("saved weights must be a dict with 'tensors' and 'sha256' "
+                             "(embeddings.networks.pack_weights).")
     state, digest = {}, hashlib.sha256()
     try:
         for name, (shape, text) in packed["tensors"].items():
@@ -103,8 +107,10 @@ class TrainingConfig:
             value = getattr(self, name)
             if not isinstance(value, (int, np.integer)) or value < 1:
                 raise EmbeddingError(f"TrainingConfig.{name} must be a positive integer, got {value!r}.")
-        if not (np.isfinite(self.lr) and self.lr > 0) or not (np.isfinite(self.weight_decay) and self.weight_decay >= 0):
-            raise EmbeddingError(f"TrainingConfig needs lr > 0 and weight_decay >= 0, got {self.lr!r}, {self.weight_decay!r}.")
+        lr_ok = np.isfinite(self.lr) and self.lr > 0
+        if not lr_ok or not (np.isfinite(self.weight_decay) and self.weight_decay >= 0):
+            raise EmbeddingError("TrainingConfig needs lr > 0 and weight_decay >= 0, got "
+                                 f"{self.lr!r}, {self.weight_decay!r}.")
 
 
 def minibatches(n: int, batch_size: int, generator: torch.Generator) -> Iterator[torch.Tensor]:

@@ -14,14 +14,16 @@ from __future__ import annotations
 import importlib
 import json
 import os
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence, TypeVar
+from typing import Any, TypeVar
 
 from embeddings.base import Decoder
 from embeddings.errors import EmbeddingError
 from physics.parameters import ParameterSpace
 
-__all__ = ["register_decoder", "decoder_from_config", "load_decoder", "registered_kinds", "require_keys", "check_config"]
+__all__ = ["register_decoder", "decoder_from_config", "load_decoder", "registered_kinds", "require_keys",
+           "check_config"]
 
 _D = TypeVar("_D", bound=type[Decoder])
 
@@ -121,7 +123,7 @@ def decoder_from_config(config: Mapping[str, Any], space: ParameterSpace) -> Dec
     return decoder
 
 
-def load_decoder(path: "str | os.PathLike[str]", space: ParameterSpace) -> Decoder:
+def load_decoder(path: str | os.PathLike[str], space: ParameterSpace) -> Decoder:
     """The decoder saved with ``decoder.save(path)`` (its kind read from the file), on ``space``.
 
     Raises :class:`EmbeddingError` for a missing or unreadable file, or one written on another

@@ -13,7 +13,8 @@ Clipping each coordinate independently is exactly the Euclidean projection onto 
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -51,7 +52,7 @@ class REMBO(Decoder):
         self.A = np.random.default_rng(self.seed).standard_normal((space.dim, self._dim))
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> "REMBO":
+    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> REMBO:
         """The REMBO on ``space`` whose ``config()`` equals ``config``: A is redrawn from the saved ``seed``.
 
         The rebuilt configuration (d, seed, box_scale, names and bounds of ``space``) must equal

@@ -97,8 +97,8 @@ def _counterfactual(ds: Any, theta: np.ndarray, space: ParameterSpace, rows: np.
     return out
 
 
-def _features(ds: Any, config: T6DataConfig, theta: np.ndarray | None = None,
-              space: ParameterSpace | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _features(ds: Any, config: T6DataConfig, theta: np.ndarray | None,
+              space: ParameterSpace) -> tuple[np.ndarray, np.ndarray]:
     """(context (m, 96), target (m, k)) of one simulated trajectory; ``theta`` is the θ' of a
     counterfactual target (module docstring)."""
     nodes = ds["nodes"].values                       # (T, 12, 3)
@@ -109,6 +109,8 @@ def _features(ds: Any, config: T6DataConfig, theta: np.ndarray | None = None,
     centred = nodes[rows] - np.concatenate([com[rows, :2], np.zeros((len(rows), 1))], axis=1)[:, None, :]
     context = np.concatenate([centred.reshape(len(rows), -1), vel[rows].reshape(len(rows), -1), controls[rows]], axis=1)
     if config.counterfactual:
+        if theta is None:
+            raise EmbeddingError("a counterfactual target needs the θ' it is predicted at; pass theta.")
         displacement = _counterfactual(ds, theta, space, rows, config.horizon)
     else:
         displacement = nodes[rows + config.horizon] - nodes[rows]
@@ -147,7 +149,7 @@ def _names(config: T6DataConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return context, target
 
 
-def cache_path(space: ParameterSpace, config: T6DataConfig, cache_dir: "str | os.PathLike[str]") -> Path:
+def cache_path(space: ParameterSpace, config: T6DataConfig, cache_dir: str | os.PathLike[str]) -> Path:
     """``cache_dir/t6-transitions-<key>.nc``: the key hashes the settings and the parameter box."""
     settings = asdict(config)
     if not settings["counterfactual"]:          # absent when off, so the sets cached before it keep their key
@@ -158,7 +160,7 @@ def cache_path(space: ParameterSpace, config: T6DataConfig, cache_dir: "str | os
 
 
 def t6_transitions(config: T6DataConfig | None = None, *, space: ParameterSpace | None = None,
-                   cache_dir: "str | os.PathLike[str] | None" = DEFAULT_CACHE, workers: int = 2,
+                   cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE, workers: int = 2,
                    progress: bool = True) -> Transitions:
     """The T6 transition set of ``config`` (module docstring), from the cache when it is there.
 

@@ -13,13 +13,15 @@ decoding network's weights (:func:`~embeddings.networks.pack_weights`, with thei
 
 ``save(path)`` writes JSON: ``{"decoder": config(), "extra": {...}, "history": [...]}`` where
 ``extra`` holds what training needs beyond decoding (an encoder's weights) and ``history`` the
-loss per epoch; ``load(path, space)`` (or :func:`embeddings.load_decoder`) reads it back. A decoder that has not been trained refuses to decode or to be fingerprinted.
+loss per epoch; ``load(path, space)`` (or :func:`embeddings.load_decoder`) reads it back. A
+decoder that has not been trained refuses to decode or to be fingerprinted.
 """
 from __future__ import annotations
 
 import abc
 import os
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import torch
@@ -98,7 +100,7 @@ class TrainedDecoder(Decoder):
                 "upper": self.space.upper.tolist(), "weights": pack_weights(self.decoder_net)}
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> "TrainedDecoder":
+    def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> TrainedDecoder:
         """The trained decoder whose ``config()`` equals ``config`` (weights checked against their sha256)."""
         from embeddings.registry import check_config, require_keys
 
@@ -112,7 +114,8 @@ class TrainedDecoder(Decoder):
         try:
             decoder = cls(space, **{k: v for k, v in config.items() if k not in reserved})
         except TypeError as exc:
-            raise EmbeddingError(f"the saved {cls.kind} configuration has options this version does not know: {exc}") from None
+            raise EmbeddingError(f"the saved {cls.kind} configuration has options this version does not "
+                                 f"know: {exc}") from None
         unpack_weights(decoder.decoder_net, config["weights"])
         decoder._set_bounds(np.asarray(config["bounds"], dtype=float))
         check_config(decoder, config)
@@ -135,7 +138,7 @@ class TrainedDecoder(Decoder):
         return {"decoder": self.config(), "extra": self.extra_state(), "history": list(self.history)}
 
     @classmethod
-    def load(cls, path: "str | os.PathLike[str]", space: ParameterSpace) -> "TrainedDecoder":
+    def load(cls, path: str | os.PathLike[str], space: ParameterSpace) -> TrainedDecoder:
         """The decoder saved at ``path`` on ``space``; raises :class:`EmbeddingError` if it is of another kind."""
         from embeddings.registry import load_decoder
 

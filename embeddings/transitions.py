@@ -58,12 +58,12 @@ class Transitions:
     def __len__(self) -> int:
         return len(self.theta)
 
-    def rows(self, index: np.ndarray) -> "Transitions":
+    def rows(self, index: np.ndarray) -> Transitions:
         """The subset of rows ``index`` (boolean mask or integer indices)."""
         return Transitions(self.theta[index], self.context[index], self.target[index], self.group[index],
                            self.parameter_names, self.context_names, self.target_names, dict(self.attrs))
 
-    def split(self, held_out: float = 0.2, *, seed: int = 0) -> tuple["Transitions", "Transitions"]:
+    def split(self, held_out: float = 0.2, *, seed: int = 0) -> tuple[Transitions, Transitions]:
         """(train, test): a seeded random ``held_out`` fraction of the *groups* goes to test."""
         groups = np.unique(self.group)
         if not 0 < held_out < 1 or len(groups) < 2:
@@ -92,7 +92,7 @@ class Transitions:
                    for k, v in self.attrs.items()},
         )
 
-    def save(self, path: "str | os.PathLike[str]") -> Path:
+    def save(self, path: str | os.PathLike[str]) -> Path:
         """Write netCDF atomically (a killed write leaves no half file); returns the path."""
         out = Path(path)
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -102,7 +102,7 @@ class Transitions:
         return out
 
     @classmethod
-    def load(cls, path: "str | os.PathLike[str]") -> "Transitions":
+    def load(cls, path: str | os.PathLike[str]) -> Transitions:
         """Read a set written by :meth:`save`; raises :class:`EmbeddingError` naming what is missing."""
         try:
             with xr.open_dataset(path) as ds:

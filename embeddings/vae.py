@@ -14,7 +14,8 @@ and folds the rest towards the centre, which is why the paper's dynamics-aware a
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import torch
@@ -68,7 +69,7 @@ class VAE(TrainedDecoder, EncodingDecoder):
         if "encoder" in extra:
             unpack_weights(self.encoder_net, extra["encoder"])
 
-    def fit(self, n_samples: int = 20000, *, training: TrainingConfig | None = None, progress: bool = False) -> "VAE":
+    def fit(self, n_samples: int = 20000, *, training: TrainingConfig | None = None, progress: bool = False) -> VAE:
         """Train on ``n_samples`` θ drawn uniformly from the box with ``training.seed``; returns self."""
         training = training or TrainingConfig(epochs=100, batch_size=256, lr=1e-3)
         if not isinstance(n_samples, (int, np.integer)) or n_samples < 2:

@@ -20,11 +20,22 @@ if TYPE_CHECKING:
     from physics.controllers import Controller, FlopController, FlopPlan, HoldController, ReplayController
     from physics.error import TrajectoryError
     from physics.errors import (
-        ContractError, ControllerError, NoResidualsError, ParameterError, PhysicsError, PoolError, TensegridError,
+        ContractError,
+        ControllerError,
+        NoResidualsError,
+        ParameterError,
+        PhysicsError,
+        PoolError,
+        TensegridError,
         TrajectoryFormatError,
     )
     from physics.geometry import (
-        CABLE_NAMES, CABLE_NODES, ROD_NODES, closed_faces, node_positions, rod_mass_properties,
+        CABLE_NAMES,
+        CABLE_NODES,
+        ROD_NODES,
+        closed_faces,
+        node_positions,
+        rod_mass_properties,
     )
     from physics.objective import STATUSES, BatchResult, FunctionObjective, Objective, as_objective
     from physics.parameters import T6_NOMINAL, Parameter, ParameterSpace
@@ -34,7 +45,11 @@ if TYPE_CHECKING:
     from physics.simulate import settled_model, simulate
     from physics.tensegrity import ModelOptions, RobotState, T6Model, rod_poses_from_nodes
     from physics.trajectory import (
-        describe_trajectory, load_trajectory, make_trajectory, save_trajectory, validate_trajectory,
+        describe_trajectory,
+        load_trajectory,
+        make_trajectory,
+        save_trajectory,
+        validate_trajectory,
     )
 
 _EXPORTS: dict[str, tuple[str, ...]] = {
@@ -57,7 +72,24 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
 }
 _ORIGIN = {name: module for module, names in _EXPORTS.items() for name in names}
 
-__all__ = [name for names in _EXPORTS.values() for name in names]
+# Spelled out (not derived from _EXPORTS) so linters and type checkers see the public names;
+# tests/physics/test_imports.py checks that the two lists agree.
+__all__ = [
+    "TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError", "ControllerError", "PoolError",
+    "ContractError", "NoResidualsError",
+    "Parameter", "ParameterSpace", "T6_NOMINAL",
+    "CABLE_NAMES", "CABLE_NODES", "ROD_NODES", "closed_faces", "node_positions", "rod_mass_properties",
+    "MotorGains",
+    "ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes",
+    "Controller", "FlopController", "FlopPlan", "HoldController", "ReplayController",
+    "make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory", "describe_trajectory",
+    "simulate", "settled_model",
+    "ObservedStates", "predict", "reconstruct_actuators",
+    "STATUSES", "BatchResult", "Objective", "FunctionObjective", "as_objective",
+    "DaskPool",
+    "TrajectoryError",
+    "PushError", "generate_push_data", "push_space", "simulate_push",
+]
 
 
 def __getattr__(name: str) -> Any:

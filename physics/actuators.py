@@ -25,8 +25,9 @@ geometry keep acting after the robot was assembled.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numba import njit
@@ -39,7 +40,8 @@ __all__ = ["MotorGains", "motor_step", "rate_limited_step", "Actuator", "MotorAc
 
 @dataclass(frozen=True)
 class MotorGains:
-    """Gains of the motor driver: position gain ``kp`` [1/s], speed gain ``kv`` [N m s], floor ``min_rest_length`` [m]."""
+    """Gains of the motor driver: position gain ``kp`` [1/s], speed gain ``kv`` [N m s], floor
+    ``min_rest_length`` [m]."""
 
     kp: float = 10.0
     kv: float = 0.05
@@ -107,7 +109,8 @@ _MOTOR, _RATE_LIMITED = 0, 1
 
 @njit(cache=True)
 def _follow(kind: int, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
-            substeps: int, law: tuple, motor: tuple, rate: float, min_rest: float, dt: float):
+            substeps: int, law: tuple, motor: tuple, rate: float, min_rest: float,
+            dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Rest lengths and speeds (T x m each) of an actuator (``kind``) driven along observed cable
     lengths and rates (T x m; lengths linear between samples, rates constant per interval), one
     target row per physics step (substeps (T - 1) x m), tensions from physics.cables.cable_tensions."""

@@ -111,7 +111,8 @@ def rod_axes(positions: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def node_kinematics(positions: np.ndarray, velocities: np.ndarray, half_lengths: np.ndarray):
+def node_kinematics(positions: np.ndarray, velocities: np.ndarray,
+                    half_lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node positions and velocities (12 x 3 each) of the six rods; node 2i = c - h a, 2i+1 = c + h a."""
     axes = rod_axes(positions)
     p = np.empty((12, 3))

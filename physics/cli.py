@@ -7,9 +7,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Sequence
+from typing import Any
 
 from physics.errors import TensegridError
 
@@ -68,7 +69,7 @@ def _run_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def register_simulate(subparsers) -> None:
+def register_simulate(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``tensegrid simulate``."""
     p = subparsers.add_parser("simulate", help="simulate the SUPERball flopping; write trajectory.nc and a picture",
                               description="Simulate the T6 at θ (nominal unless --theta) under the flop controller.")
@@ -91,7 +92,8 @@ def register_simulate(subparsers) -> None:
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The parser; with ``command`` given, only that sub-command's package is imported
     (importing belief pulls in torch, which costs seconds)."""
-    parser = argparse.ArgumentParser(prog="tensegrid", description="Identify tensegrity parameters with DART and Bayesian optimization.")
+    parser = argparse.ArgumentParser(
+        prog="tensegrid", description="Identify tensegrity parameters with DART and Bayesian optimization.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     found = {ep.name: ep for ep in entry_points(group="tensegrid.commands")}
     if "simulate" not in found:  # running from a source tree without the installed metadata

@@ -16,30 +16,33 @@ independent model; this choice tipped it every time, shared/reference/t6-superba
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
 from physics.errors import ControllerError
 from physics.geometry import N_CABLES
 
+if TYPE_CHECKING:                   # imported at run time only when planning: it loads dartpy
+    from physics.tensegrity import T6Model
+
 __all__ = ["Controller", "HoldController", "ReplayController", "FlopController", "FlopPlan", "select_cables"]
 
 
 @runtime_checkable
 class Controller(Protocol):
-    def reset(self, model) -> None: ...
+    def reset(self, model: T6Model) -> None: ...
 
-    def __call__(self, t: float, model) -> np.ndarray: ...
+    def __call__(self, t: float, model: T6Model) -> np.ndarray: ...
 
 
 class HoldController:
     """Keep every rest length where it was at reset."""
 
-    def reset(self, model) -> None:
+    def reset(self, model: T6Model) -> None:
         self._hold = model.rest_length_readings().copy()
 
-    def __call__(self, t: float, model) -> np.ndarray:
+    def __call__(self, t: float, model: T6Model) -> np.ndarray:
         return self._hold
 
 
@@ -50,14 +53,15 @@ class ReplayController:
         self.times = np.asarray(times, float)
         self.controls = np.asarray(controls, float)
         if self.controls.ndim != 2 or self.controls.shape != (self.times.size, N_CABLES):
-            raise ControllerError(f"controls must have shape ({self.times.size}, {N_CABLES}), got {self.controls.shape}.")
+            raise ControllerError(f"controls must have shape ({self.times.size}, {N_CABLES}), "
+                                  f"got {self.controls.shape}.")
         if not np.all(np.isfinite(self.controls)):
             raise ControllerError("controls contain NaN; fill or drop missing control samples before replaying.")
 
-    def reset(self, model) -> None:
+    def reset(self, model: T6Model) -> None:
         pass
 
-    def __call__(self, t: float, model) -> np.ndarray:
+    def __call__(self, t: float, model: T6Model) -> np.ndarray:
         i = int(np.searchsorted(self.times - self.times[0], t + 1e-9, side="right")) - 1
         return self.controls[min(max(i, 0), len(self.times) - 1)]
 
@@ -112,21 +116,22 @@ class FlopController:
         self.start, self.stop, self.period, self.flops = float(start), float(stop), float(period), int(flops)
         self.trial_duration = float(trial_duration)
         self.plans: list[FlopPlan] = []
-        self._planner = None
+        self._planner: T6Model | None = None
 
     # ------------------------------------------------------------------ planning
-    def _planner_model(self, model):
+    def _planner_model(self, model: T6Model) -> T6Model:
         if self._planner is None:
             from physics.tensegrity import T6Model
             # its own nominal model: the T6 part of the model's nominal θ, no effects
             self._planner = T6Model(model.space.nominal[:15], options=model.options)
         return self._planner
 
-    def plan(self, model) -> FlopPlan:
+    def plan(self, model: T6Model) -> FlopPlan:
         """Choose the cables from the current observed state of ``model`` (see module docstring)."""
         nodes = model.node_positions()
         readings = model.rest_length_readings()
-        base = tuple(int(i) for i in np.argsort(nodes[:, 2])[:3])
+        lowest = [int(i) for i in np.argsort(nodes[:, 2])[:3]]
+        base = (lowest[0], lowest[1], lowest[2])
         goal = np.array([np.cos(self.heading), np.sin(self.heading)])
         tri = nodes[list(base), :2]
         centre = tri.mean(axis=0)
@@ -160,12 +165,12 @@ class FlopController:
         return select_cables(FlopPlan((), (), np.r_[direction, 0.0], base, short, longer), self.n_cables)
 
     # ------------------------------------------------------------------ protocol
-    def reset(self, model) -> None:
+    def reset(self, model: T6Model) -> None:
         self.plans = []
         self._base_readings = model.rest_length_readings().copy()
         self._current = self._base_readings
 
-    def __call__(self, t: float, model) -> np.ndarray:
+    def __call__(self, t: float, model: T6Model) -> np.ndarray:
         k = int(np.floor(t / self.period + 1e-9))
         if k >= self.flops:
             return self._current

@@ -31,10 +31,9 @@ process per worker, started on first use and reused) or an existing scheduler's 
 """
 from __future__ import annotations
 
-import hashlib
-from typing import Mapping, Sequence
-
 import copy
+import hashlib
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
@@ -57,7 +56,7 @@ def _warm_up() -> None:
 
 
 class TrajectoryError:
-    """E(θ) on observed trajectories; callable on one θ (D,) or a batch (n x D).
+    """E(θ) on observed trajectories; callable on one θ (D,), :meth:`evaluate_batch` for a batch (n x D).
 
     trajectories: one Dataset or a sequence (docs/data-format.md); horizon: 1, k or "rollout";
     actuators: "reconstructed" (default: θ's motor model is run along the observed motion, so the
@@ -65,13 +64,13 @@ class TrajectoryError:
     motor parameters then barely act on a one-step error) or "auto" (measured if available);
     loss: "norm" or "squared"; options: model options (dt must divide the sampling interval);
     windows: segments per trajectory (module docstring); effects: physics.effects parts added to
-    the T6 (θ then lives in ``model_space(effects)``: 15 T6 parameters, then the effects'); address: a dask scheduler address for
-    batches (default: a local cluster of ``n_workers`` single-threaded processes; ``n_workers=0``
-    evaluates batches serially in this process).
+    the T6 (θ then lives in ``model_space(effects)``: 15 T6 parameters, then the effects');
+    address: a dask scheduler address for batches (default: a local cluster of ``n_workers``
+    single-threaded processes; ``n_workers=0`` evaluates batches serially in this process).
     """
 
-    def __init__(self, trajectories: "xr.Dataset | Sequence[xr.Dataset]", *, space: ParameterSpace | None = None,
-                 horizon: "int | str" = 1, actuators: str = "reconstructed", loss: str = "norm",
+    def __init__(self, trajectories: xr.Dataset | Sequence[xr.Dataset], *, space: ParameterSpace | None = None,
+                 horizon: int | str = 1, actuators: str = "reconstructed", loss: str = "norm",
                  options: ModelOptions | None = None, windows: int = 3, effects: Sequence[Effect] = (),
                  address: str | None = None, n_workers: int = 2) -> None:
         if isinstance(trajectories, xr.Dataset):
@@ -169,7 +168,7 @@ class TrajectoryError:
         return np.array_split(compared, min(self.windows, compared.size))
 
     # ------------------------------------------------------------------ evaluation
-    def _theta(self, theta: "np.ndarray | Mapping[str, float] | None") -> np.ndarray:
+    def _theta(self, theta: np.ndarray | Mapping[str, float] | None) -> np.ndarray:
         arr = self.space.as_array(theta, check_bounds=False)
         if arr.ndim != 1:
             raise ParameterError(f"one θ of shape ({self.space.dim},) is expected here, got {arr.shape}; "
@@ -193,48 +192,47 @@ class TrajectoryError:
             out.append(pred)
         return out
 
-    def predictions(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[xr.DataArray]:
+    def predictions(self, theta: np.ndarray | Mapping[str, float] | None = None) -> list[xr.DataArray]:
         """Predicted node positions f(x_i, u_i, θ) per trajectory, DataArrays (time, node, axis) in
         the layout of the data's ``nodes``; NaN where nothing was predicted (the first samples,
         holes). Raises :class:`PhysicsError` if a simulation diverges."""
         preds = self._predict(self._theta(theta))
         return [xr.DataArray(pred, dims=("time", "node", "axis"), coords=ds["nodes"].coords,
                              name="predicted_nodes", attrs={"units": "m", "horizon": str(self.horizon)})
-                for pred, ds in zip(preds, self.trajectories)]
+                for pred, ds in zip(preds, self.trajectories, strict=True)]
 
     def _sample_errors(self, preds: list[np.ndarray]) -> list[np.ndarray]:
-        return [np.sqrt(((pred - obs.nodes) ** 2).sum(axis=(1, 2))) for pred, obs in zip(preds, self._observed)]
+        return [np.sqrt(((pred - obs.nodes) ** 2).sum(axis=(1, 2)))
+                for pred, obs in zip(preds, self._observed, strict=True)]
 
-    def per_sample(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[np.ndarray]:
+    def per_sample(self, theta: np.ndarray | Mapping[str, float] | None = None) -> list[np.ndarray]:
         """Per-sample errors ||x_i - x̂_i||_2 (T,) for each trajectory, NaN where not compared."""
         return self._sample_errors(self._predict(self._theta(theta)))
 
-    def evaluate_parts(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> np.ndarray:
+    def evaluate_parts(self, theta: np.ndarray | Mapping[str, float] | None = None) -> np.ndarray:
         """Per-segment errors (S,) in the order of :attr:`segments`: part (k, j) = Σ_{i in group j of
         trajectory k} ||x_i - x̂_i||_2 (loss "norm") or its square (loss "squared"), NaN samples
         skipped; the parts sum to E(θ). Raises :class:`PhysicsError` if a simulation diverges."""
         power = 1 if self.loss == "norm" else 2
         parts = [np.nansum(errors[group] ** power)
-                 for errors, groups in zip(self.per_sample(theta), self._groups) for group in groups]
+                 for errors, groups in zip(self.per_sample(theta), self._groups, strict=True) for group in groups]
         return np.asarray(parts, dtype=float)
 
-    def residuals(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> list[np.ndarray]:
+    def residuals(self, theta: np.ndarray | Mapping[str, float] | None = None) -> list[np.ndarray]:
         """Residuals x_i - x̂_i per segment: S arrays (T_s, 36), node-major coordinates [m], one row per
         sample from the segment's first to its last compared sample (time order), NaN rows where
         nothing was compared. Σ_s nansum(r_s²) equals E(θ) for loss "squared"; Σ_s Σ_rows ||r|| for "norm"."""
-        out = []
-        for pred, obs, groups in zip(self._predict(self._theta(theta)), self._observed, self._groups):
+        out: list[np.ndarray] = []
+        for pred, obs, groups in zip(self._predict(self._theta(theta)), self._observed, self._groups, strict=True):
             diff = (obs.nodes - pred).reshape(len(pred), 36)
             diff[~np.isfinite(diff).all(axis=1)] = np.nan
             out.extend(diff[group[0]:group[-1] + 1] for group in groups)
         return out
 
-    def __call__(self, theta: "np.ndarray | Mapping[str, float] | None" = None) -> "float | np.ndarray":
-        """E(θ) = Σ_s parts_s for one θ (D,) -> float, or a batch (n x D) -> (n,) with NaN where not ok."""
-        arr = self.space.as_array(theta, check_bounds=False)
-        if arr.ndim == 2:
-            return self.evaluate_batch(arr).errors
-        return float(self.evaluate_parts(arr).sum())
+    def __call__(self, theta: np.ndarray | Mapping[str, float] | None = None) -> float:
+        """E(θ) = Σ_s parts_s for one θ (D,) (the nominal θ if None). A batch (n x D) goes through
+        :meth:`evaluate_batch`, which records failures instead of raising."""
+        return float(self.evaluate_parts(theta).sum())
 
     @property
     def n_observations(self) -> int:
@@ -256,10 +254,12 @@ class TrajectoryError:
         if thetas.ndim != 2:
             raise ParameterError(f"thetas must have shape (n, {self.space.dim}), got {thetas.shape}.")
 
-        def relay(k: int, row: Row) -> None:
-            on_result(k, *row)
+        callback = None
+        if on_result is not None:
+            report = on_result
 
-        callback = relay if on_result is not None else None
+            def callback(k: int, row: Row) -> None:
+                report(k, *row)
         if parallel:
             rows = self._pool.map_rows(evaluate_row, self, list(thetas), callback)
         else:
@@ -276,7 +276,7 @@ class TrajectoryError:
             return self._pool.map_rows(residual_row, self, list(thetas))
         return map_serial(residual_row, self, list(thetas))
 
-    def with_effects(self, effects: Sequence[Effect]) -> "TrajectoryError":
+    def with_effects(self, effects: Sequence[Effect]) -> TrajectoryError:
         """The same data and settings with the model's effects replaced by ``effects`` (θ then lives
         in ``model_space(effects)``); shares this objective's worker pool."""
         other = copy.copy(self)
@@ -284,7 +284,7 @@ class TrajectoryError:
         other.space = model_space(other.effects)
         return other
 
-    def select(self, trajectories: Sequence[int]) -> "TrajectoryError":
+    def select(self, trajectories: Sequence[int]) -> TrajectoryError:
         """The same settings on a subset of the trajectories (indices, in the given order); shares
         this objective's worker pool. Segments are renumbered t0.. in the new order."""
         index = [int(k) for k in trajectories]
@@ -300,7 +300,7 @@ class TrajectoryError:
         """Shut down the local dask cluster, if one was started."""
         self._pool.close()
 
-    def __enter__(self) -> "TrajectoryError":
+    def __enter__(self) -> TrajectoryError:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -132,7 +132,8 @@ def _rotvec_z_to(axis: np.ndarray) -> np.ndarray:
     return out
 
 
-def rod_poses_from_nodes(nodes: np.ndarray, node_velocities: np.ndarray | None = None):
+def rod_poses_from_nodes(nodes: np.ndarray,
+                         node_velocities: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """FreeJoint positions and velocities (36,) from node positions (12 x 3) and velocities.
 
     Centre c = (n0 + n1)/2, axis a = (n1 - n0)/|n1 - n0|, v = (v0 + v1)/2,

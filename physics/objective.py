@@ -44,8 +44,9 @@ import concurrent.futures as cf
 import math
 import operator
 import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol, Sequence, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -92,7 +93,8 @@ class BatchResult:
         if errors.shape != (n,) or seconds.shape != (n,) or len(messages) != n:
             raise ParameterError(
                 f"BatchResult: errors, seconds and messages must have one entry per status (n = {n}); got "
-                f"errors {errors.shape}, seconds {seconds.shape}, {len(messages)} messages. Build all from the same rows."
+                f"errors {errors.shape}, seconds {seconds.shape}, {len(messages)} messages. "
+                "Build all from the same rows."
             )
         if parts.ndim != 2 or parts.shape[0] != n:
             raise ParameterError(
@@ -122,7 +124,7 @@ class BatchResult:
                                  f"{errors[ok].tolist()} vs sums {total.tolist()}. Compute E as the sum of its parts.")
 
     @classmethod
-    def from_rows(cls, rows: Sequence[Row], n_segments: int) -> "BatchResult":
+    def from_rows(cls, rows: Sequence[Row], n_segments: int) -> BatchResult:
         """Assemble a result from n rows ``(error, status, seconds, message, parts (S,))``."""
         parts = np.full((len(rows), int(n_segments)), np.nan)
         for k, row in enumerate(rows):
@@ -140,7 +142,7 @@ class BatchResult:
 
     def __iter__(self) -> Iterator[tuple[float, str]]:
         """Rows as (error, status) pairs."""
-        return iter(zip(self.errors.tolist(), self.status))
+        return iter(zip(self.errors.tolist(), self.status, strict=True))
 
 
 def check_windows(windows: Any, what: str) -> int:
@@ -155,7 +157,7 @@ def check_windows(windows: Any, what: str) -> int:
     return value
 
 
-def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:
+def evaluate_row(objective: Objective, theta: np.ndarray) -> Row:
     """One row of a batch: ``objective.evaluate_parts(theta)`` timed, its outcome mapped to a status.
 
     Returns (E, "ok", seconds, "", parts (S,)) with E = parts.sum(); (NaN, "diverged", ...) on
@@ -181,7 +183,7 @@ def evaluate_row(objective: "Objective", theta: np.ndarray) -> Row:
     return float(parts.sum()), "ok", seconds, "", parts
 
 
-def residual_row(objective: "Objective", theta: np.ndarray) -> list[np.ndarray] | None:
+def residual_row(objective: Objective, theta: np.ndarray) -> list[np.ndarray] | None:
     """``objective.residuals(theta)`` (S arrays (T_s, m)), or None when the simulation diverged
     (:class:`PhysicsError`), another tensegrid error was raised, or a residual is inf.
     :class:`NoResidualsError` (the objective has none at any θ) and bugs propagate."""
@@ -202,7 +204,7 @@ class Objective(Protocol):
     S = ``len(segments)``; ``residuals`` returns S arrays (T_s, m).
     """
 
-    space: "ParameterSpace"
+    space: ParameterSpace
 
     @property
     def segments(self) -> tuple[str, ...]:
@@ -271,7 +273,7 @@ class FunctionObjective:
     A return value that is not a scalar raises :class:`ContractError`.
     """
 
-    def __init__(self, fn: ObjectiveFunction, space: "ParameterSpace", *, workers: int = 1, n_observations: int = 1,
+    def __init__(self, fn: ObjectiveFunction, space: ParameterSpace, *, workers: int = 1, n_observations: int = 1,
                  noise_var: float | None = None) -> None:
         if not callable(fn):
             raise ContractError(f"FunctionObjective wraps a function θ -> E(θ), got {type(fn).__name__}.")
@@ -362,11 +364,11 @@ class FunctionObjective:
         return f"FunctionObjective({self.name}, D={self.space.dim}, workers={self.workers})"
 
 
-def _same_space(a: "ParameterSpace", b: "ParameterSpace") -> bool:
+def _same_space(a: ParameterSpace, b: ParameterSpace) -> bool:
     return tuple(a.names) == tuple(b.names) and bool(np.allclose(a.lower, b.lower) and np.allclose(a.upper, b.upper))
 
 
-def as_objective(objective: "Objective | ObjectiveFunction", space: "ParameterSpace | None" = None, *,
+def as_objective(objective: Objective | ObjectiveFunction, space: ParameterSpace | None = None, *,
                  workers: int = 1) -> Objective:
     """``objective`` itself when it implements :class:`Objective`, else a plain function wrapped in
     :class:`FunctionObjective` on ``space`` (default: the function's ``.space`` attribute) with

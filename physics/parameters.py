@@ -11,8 +11,8 @@ model, converted to SI); see docs/parameters.md for the table with sources.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
@@ -124,7 +124,7 @@ class ParameterSpace:
         relative_width: float = 0.10,
         bounds: Mapping[str, tuple[float, float]] | None = None,
         nominal: Mapping[str, float] | None = None,
-    ) -> "ParameterSpace":
+    ) -> ParameterSpace:
         """The 15 SUPERball parameters with bounds nominal·(1 ± relative_width).
 
         ``bounds`` overrides the box of single parameters (SI), ``nominal`` their nominal values.
@@ -168,7 +168,7 @@ class ParameterSpace:
     def __len__(self) -> int:
         return len(self.parameters)
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[Parameter]:
         return iter(self.parameters)
 
     def __getitem__(self, name: str) -> Parameter:
@@ -194,7 +194,7 @@ class ParameterSpace:
         return np.array([p.upper for p in self.parameters])
 
     # ------------------------------------------------------------------ conversion
-    def as_array(self, theta: "np.ndarray | Sequence[float] | Mapping[str, float] | xr.DataArray | None" = None,
+    def as_array(self, theta: np.ndarray | Sequence[float] | Mapping[str, float] | xr.DataArray | None = None,
                  *, check_bounds: bool = True) -> np.ndarray:
         """θ as a validated float array of shape ``D`` or ``n x D``.
 
@@ -221,7 +221,7 @@ class ParameterSpace:
             unknown = sorted(set(theta) - set(self.names))
             if unknown:
                 raise ParameterError(f"Unknown parameter name(s) {unknown}; valid names are {list(self.names)}.")
-            theta = np.array([float(theta.get(n, p.nominal)) for n, p in zip(self.names, self.parameters)])
+            theta = np.array([float(theta.get(n, p.nominal)) for n, p in zip(self.names, self.parameters, strict=True)])
         try:
             arr = np.asarray(theta, dtype=float)
         except (TypeError, ValueError) as exc:
@@ -256,19 +256,20 @@ class ParameterSpace:
                         "(ParameterSpace.t6(bounds=...)), or pass check_bounds=False."
                     )
 
-    def as_dict(self, theta: "np.ndarray | Mapping[str, float] | None" = None, *, check_bounds: bool = False) -> dict[str, float]:
+    def as_dict(self, theta: np.ndarray | Mapping[str, float] | None = None, *,
+                check_bounds: bool = False) -> dict[str, float]:
         """A single θ as a dict name -> SI value."""
         arr = self.as_array(theta, check_bounds=check_bounds)
         if arr.ndim != 1:
             raise ParameterError(f"as_dict takes a single theta of shape ({self.dim},), got {arr.shape}.")
-        return {n: float(v) for n, v in zip(self.names, arr)}
+        return {n: float(v) for n, v in zip(self.names, arr, strict=True)}
 
-    def to_unit(self, theta: "np.ndarray | Mapping[str, float]") -> np.ndarray:
+    def to_unit(self, theta: np.ndarray | Mapping[str, float]) -> np.ndarray:
         """u = (θ - lower) / (upper - lower); shape ``D`` or ``n x D``, inside [0, 1]."""
         arr = self.as_array(theta)
         return (arr - self.lower) / (self.upper - self.lower)
 
-    def from_unit(self, u: "np.ndarray | Sequence[float]") -> np.ndarray:
+    def from_unit(self, u: np.ndarray | Sequence[float]) -> np.ndarray:
         """θ = lower + u (upper - lower) for u in [0, 1]^D; shape ``D`` or ``n x D``."""
         arr = np.asarray(u, dtype=float)
         if arr.ndim not in (1, 2) or arr.shape[-1] != self.dim:
@@ -277,12 +278,13 @@ class ParameterSpace:
             raise ParameterError("u contains NaN or infinite values; unit-cube coordinates must be finite.")
         if np.any(arr < -1e-12) or np.any(arr > 1 + 1e-12):
             raise ParameterError(
-                f"u must lie in the unit cube [0, 1]^{self.dim}, got values in [{float(arr.min())!r}, {float(arr.max())!r}]; "
+                f"u must lie in the unit cube [0, 1]^{self.dim}, got values in "
+                f"[{float(arr.min())!r}, {float(arr.max())!r}]; "
                 "clip with numpy.clip(u, 0, 1)."
             )
         return self.lower + np.clip(arr, 0.0, 1.0) * (self.upper - self.lower)
 
-    def to_dataarray(self, theta: "np.ndarray | Mapping[str, float]", *, check_bounds: bool = False) -> xr.DataArray:
+    def to_dataarray(self, theta: np.ndarray | Mapping[str, float], *, check_bounds: bool = False) -> xr.DataArray:
         """θ as a DataArray with dimension ``parameter`` (and ``sample`` for n x D)."""
         arr = self.as_array(theta, check_bounds=check_bounds)
         dims = ("parameter",) if arr.ndim == 1 else ("sample", "parameter")
@@ -291,7 +293,7 @@ class ParameterSpace:
             coords={"parameter": list(self.names), "unit": ("parameter", list(self.units))},
         )
 
-    def replace(self, theta: "np.ndarray | Mapping[str, float] | None" = None, **values: float) -> np.ndarray:
+    def replace(self, theta: np.ndarray | Mapping[str, float] | None = None, **values: float) -> np.ndarray:
         """θ with some parameters replaced by name (bounds not checked), e.g. ``replace(damping=0.0)``."""
         arr = self.as_array(theta, check_bounds=False).copy()
         for name, value in values.items():
@@ -299,7 +301,7 @@ class ParameterSpace:
         self._validate(arr, check_bounds=False)
         return arr
 
-    def sample(self, n: int, *, seed: "int | np.random.Generator") -> np.ndarray:
+    def sample(self, n: int, *, seed: int | np.random.Generator) -> np.ndarray:
         """n points uniform in the box, shape ``n x D``."""
         if int(n) < 1:
             raise ParameterError(f"n must be a positive integer, got {n!r}.")
@@ -307,5 +309,5 @@ class ParameterSpace:
         return self.from_unit(rng.random((int(n), self.dim)))
 
     @classmethod
-    def from_parameters(cls, params: Iterable[Parameter]) -> "ParameterSpace":
+    def from_parameters(cls, params: Iterable[Parameter]) -> ParameterSpace:
         return cls(tuple(params))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -14,10 +15,14 @@ import xarray as xr  # noqa: E402
 
 from physics.geometry import CABLE_NODES, ROD_NODES  # noqa: E402
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+    from mpl_toolkits.mplot3d import Axes3D
+
 __all__ = ["draw_robot", "plot_trajectory", "plot_observed_vs_predicted"]
 
 
-def _save(fig, path: "str | os.PathLike[str]") -> Path:
+def _save(fig: Figure, path: str | os.PathLike[str]) -> Path:
     """Lay out, write (creating the folder) and close a figure; returns the path."""
     fig.tight_layout()
     path = Path(path)
@@ -27,19 +32,21 @@ def _save(fig, path: "str | os.PathLike[str]") -> Path:
     return path
 
 
-def draw_robot(ax, nodes: np.ndarray, *, color: str = "C0", alpha: float = 1.0, tension: np.ndarray | None = None) -> None:
+def draw_robot(ax: Axes3D, nodes: np.ndarray, *, color: str = "C0", alpha: float = 1.0,
+               tension: np.ndarray | None = None) -> None:
     """Draw rods (thick) and cables (thin; red when taut above 1 N if ``tension`` is given) on a 3-D axis."""
     for a, b in CABLE_NODES:
         ax.plot(*nodes[[a, b]].T, color="0.6", lw=0.8, alpha=alpha)
     if tension is not None:
-        for (a, b), t in zip(CABLE_NODES, tension):
+        for (a, b), t in zip(CABLE_NODES, tension, strict=True):
             if t > 1.0:
                 ax.plot(*nodes[[a, b]].T, color="C3", lw=0.6, alpha=alpha * 0.8)
     for a, b in ROD_NODES:
         ax.plot(*nodes[[a, b]].T, color=color, lw=3.0, alpha=alpha, solid_capstyle="round")
 
 
-def plot_trajectory(ds: xr.Dataset, path: "str | os.PathLike[str]", *, snapshots: int = 2, title: str | None = None) -> Path:
+def plot_trajectory(ds: xr.Dataset, path: str | os.PathLike[str], *, snapshots: int = 2,
+                    title: str | None = None) -> Path:
     """Save a figure: robot snapshots over time (left) and centre-of-mass path and height (right)."""
     nodes = ds["nodes"].transpose("time", "node", "axis").values
     t = ds["time"].values
@@ -85,7 +92,7 @@ def _nan_centre(nodes: np.ndarray) -> np.ndarray:
     return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def plot_observed_vs_predicted(ds: xr.Dataset, predictions: "dict[str, xr.DataArray]", path: "str | os.PathLike[str]", *,
+def plot_observed_vs_predicted(ds: xr.Dataset, predictions: dict[str, xr.DataArray], path: str | os.PathLike[str], *,
                                title: str | None = None) -> Path:
     """Save a figure of the observed centre of mass (x, y, z) against predictions (label -> nodes
     DataArray (time, node, axis), e.g. from ``TrajectoryError(ds, horizon="rollout").predictions(θ)``),
@@ -98,7 +105,7 @@ def plot_observed_vs_predicted(ds: xr.Dataset, predictions: "dict[str, xr.DataAr
     styles = ["--", ":", "-."]
     for k, label in enumerate("xyz"):
         axes[k].plot(t, com[:, k], color="k", lw=2.0, label="observed")
-        for j, (name, pred) in enumerate(predictions.items()):
+        for j, name in enumerate(predictions):
             axes[k].plot(t, centre[name][:, k], styles[j % 3], lw=1.5, label=name)
         axes[k].set_ylabel(f"COM {label} [m]")
         axes[k].grid(alpha=0.3)

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import operator
 import weakref
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from physics.errors import ParameterError, PoolError
 
@@ -54,7 +55,7 @@ class DaskPool:
         self._client: Any = None
         self._cluster: Any = None
         self._remote: Any = None
-        self._payload: "weakref.ref[Any] | None" = None
+        self._payload: weakref.ref[Any] | None = None
 
     @property
     def parallel(self) -> bool:
@@ -128,7 +129,7 @@ class DaskPool:
             self._cluster.close()
         self._client = self._cluster = self._remote = self._payload = None
 
-    def __enter__(self) -> "DaskPool":
+    def __enter__(self) -> DaskPool:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -24,7 +24,7 @@ above over group j, and the residuals of group j are the column ``S_obs_k - S(th
 from __future__ import annotations
 
 import hashlib
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -51,7 +51,7 @@ def push_space(
     ))
 
 
-def _impulses(impulses: "np.ndarray | Sequence[float]") -> np.ndarray:
+def _impulses(impulses: np.ndarray | Sequence[float]) -> np.ndarray:
     arr = np.asarray(impulses, dtype=float)
     if arr.ndim != 1 or arr.size == 0:
         raise ParameterError(
@@ -63,8 +63,8 @@ def _impulses(impulses: "np.ndarray | Sequence[float]") -> np.ndarray:
 
 
 def simulate_push(
-    theta: "np.ndarray | Sequence[float]",
-    impulses: "np.ndarray | Sequence[float]",
+    theta: np.ndarray | Sequence[float],
+    impulses: np.ndarray | Sequence[float],
     *,
     space: ParameterSpace | None = None,
 ) -> np.ndarray:
@@ -81,12 +81,12 @@ def simulate_push(
 
 
 def generate_push_data(
-    theta: "np.ndarray | Sequence[float]",
+    theta: np.ndarray | Sequence[float],
     *,
     n: int = 8,
-    impulses: "np.ndarray | Sequence[float] | None" = None,
+    impulses: np.ndarray | Sequence[float] | None = None,
     noise_std: float = 0.0,
-    seed: "int | np.random.Generator" = 0,
+    seed: int | np.random.Generator = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Synthetic observations ``(impulses K, displacements K)`` for the true ``theta`` (shape 2).
 
@@ -119,8 +119,8 @@ class PushError:
 
     def __init__(
         self,
-        impulses: "np.ndarray | Sequence[float]",
-        observed: "np.ndarray | Sequence[float]",
+        impulses: np.ndarray | Sequence[float],
+        observed: np.ndarray | Sequence[float],
         *,
         space: ParameterSpace | None = None,
         noise_std: float | None = None,
@@ -166,30 +166,32 @@ class PushError:
 
     def fingerprint(self) -> dict[str, object]:
         """JSON-able identity of the data and options (a journal refuses another data set)."""
-        h = hashlib.sha256(np.ascontiguousarray(self.impulses).tobytes() + np.ascontiguousarray(self.observed).tobytes())
+        h = hashlib.sha256(np.ascontiguousarray(self.impulses).tobytes())
+        h.update(np.ascontiguousarray(self.observed).tobytes())
         return {"kind": "push", "data_sha256": h.hexdigest(), "noise_std": self.noise_std,
                 "fail_above": self.fail_above, "windows": self.windows, "segments": list(self.segments)}
 
-    def _residual(self, theta: "np.ndarray | Sequence[float]") -> np.ndarray:
+    def _residual(self, theta: np.ndarray | Sequence[float]) -> np.ndarray:
         """S_obs - S(theta) (K,) [m]; raises PhysicsError above ``fail_above``."""
         th = self.space.as_array(theta)
         if th.ndim != 1:
             raise ParameterError(f"PushError takes one theta of shape (2,), got {th.shape}; use evaluate_batch.")
         if self.fail_above is not None and th[0] > self.fail_above:
-            raise PhysicsError(f"push toy: mass {th[0]!r} kg above fail_above={self.fail_above!r} (simulated divergence).")
+            raise PhysicsError(f"push toy: mass {th[0]!r} kg above fail_above={self.fail_above!r} "
+                               "(simulated divergence).")
         return self.observed - simulate_push(th, self.impulses, space=self.space)
 
-    def evaluate_parts(self, theta: "np.ndarray | Sequence[float]") -> np.ndarray:
+    def evaluate_parts(self, theta: np.ndarray | Sequence[float]) -> np.ndarray:
         """Per-segment errors (S,) [m^2]: sum of squared residuals over each group of pushes."""
         r = self._residual(theta)
         return np.array([np.sum(r[group] ** 2) for group in self._groups])
 
-    def residuals(self, theta: "np.ndarray | Sequence[float]") -> list[np.ndarray]:
+    def residuals(self, theta: np.ndarray | Sequence[float]) -> list[np.ndarray]:
         """Residuals S_obs - S(theta) per segment: S arrays (K_j, 1) [m] in push order."""
         r = self._residual(theta)
         return [r[group, None] for group in self._groups]
 
-    def __call__(self, theta: "np.ndarray | Sequence[float]") -> float:
+    def __call__(self, theta: np.ndarray | Sequence[float]) -> float:
         """E(theta) [m^2] for theta of shape (2,), the sum of the parts."""
         return float(self.evaluate_parts(theta).sum())
 

@@ -8,7 +8,7 @@ nodes, controls, rest-length readings and tensions are recorded. Settled states 
 """
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import xarray as xr
@@ -26,9 +26,9 @@ _SETTLED: dict[tuple, RobotState] = {}
 _CACHE_SIZE = 64
 
 
-def settled_model(theta: "np.ndarray | Mapping[str, float] | None" = None, *, space: ParameterSpace | None = None,
+def settled_model(theta: np.ndarray | Mapping[str, float] | None = None, *, space: ParameterSpace | None = None,
                   options: ModelOptions | None = None, settle: float = 2.0,
-                  effects: "tuple[Effect, ...]" = ()) -> T6Model:
+                  effects: tuple[Effect, ...] = ()) -> T6Model:
     """A :class:`T6Model` at θ (with ``effects``) after ``settle`` seconds of resting (cached per process)."""
     model = T6Model(theta, space=space, options=options, effects=effects)
     if settle < 0 or not np.isfinite(settle):
@@ -46,12 +46,12 @@ def settled_model(theta: "np.ndarray | Mapping[str, float] | None" = None, *, sp
     return model
 
 
-def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, controller: Controller | None = None,
+def simulate(theta: np.ndarray | Mapping[str, float] | None = None, *, controller: Controller | None = None,
              duration: float = 3.0, sample_rate: float = 100.0, settle: float = 2.0,
              options: ModelOptions | None = None, space: ParameterSpace | None = None,
-             noise: float = 0.0, seed: "int | np.random.Generator | None" = None,
+             noise: float = 0.0, seed: int | np.random.Generator | None = None,
              record_velocities: bool = True, check_bounds: bool = False,
-             effects: "tuple[Effect, ...] | list[Effect]" = (), length_reference: str = "encoder") -> xr.Dataset:
+             effects: tuple[Effect, ...] | list[Effect] = (), length_reference: str = "encoder") -> xr.Dataset:
     """Simulate and return a trajectory Dataset with ``nodes``, ``controls``, ``rest_length``, ``tension``.
 
     duration [s] after settling; sample_rate [Hz] of the recording and the controls; noise: standard
@@ -105,7 +105,8 @@ def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, control
         controls, rest = controls + model.encoder_offset, rest + model.encoder_offset
     if noise > 0:
         nodes = nodes + np.random.default_rng(seed).normal(0.0, noise, nodes.shape)
-        velocities = None  # a noisy recording carries positions only (motion capture)
+    # a noisy recording carries positions only (motion capture)
+    recorded = velocities if record_velocities and noise <= 0 else None
     attrs = {
         "source": "tensegrid.physics.simulate",
         "physics_dt": dt,
@@ -114,6 +115,6 @@ def simulate(theta: "np.ndarray | Mapping[str, float] | None" = None, *, control
         "controller": type(controller).__name__,
         "length_reference": length_reference,
     }
-    return make_trajectory(np.arange(n) / sample_rate, nodes, controls, velocities=velocities if record_velocities else None,
+    return make_trajectory(np.arange(n) / sample_rate, nodes, controls, velocities=recorded,
                            rest_length=rest, tension=tension,
                            theta=theta_arr, parameter_names=space.names, attrs=attrs)

@@ -16,8 +16,9 @@ one Skeleton keeps the Python side to one get/set call per step (six Skeletons m
 cheaper inside DART but cost more in Python calls, and were slower overall). A sphere of radius ``radius`` at
 each node gives contact with a static ground box (ODE collision detector; FCL sinks cylinders).
 Rods do not collide with each other (DART's self-collision check is off: it made each step
-markedly slower); in the motions this model is for, caps of different rods stay a cable length apart. The middle of a rod has no collision shape: with the end radius
-larger than the middle radius, a rod lying on the ground touches it with its caps. Deactivation
+markedly slower); in the motions this model is for, caps of different rods stay a cable length
+apart. The middle of a rod has no collision shape: with the end radius larger than the middle
+radius, a rod lying on the ground touches it with its caps. Deactivation
 (sleeping) is off: it freezes resting bodies.
 
 The robot is built with a closed face (three nodes joined by cables) facing the ground, dropped
@@ -31,8 +32,8 @@ radius, point masses, cable law, actuator, command delay, extra node forces, obs
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import dartpy as dart
 import numpy as np
@@ -42,7 +43,12 @@ from physics.cables import add_node_forces, cable_energy, cable_wrenches, node_k
 from physics.effects.base import Effect, ModelSetup, model_space, split_theta
 from physics.errors import ParameterError, PhysicsError
 from physics.geometry import (
-    CABLE_NODES, N_CABLES, closed_faces, node_positions, rod_mass_properties, rod_poses_from_nodes,
+    CABLE_NODES,
+    N_CABLES,
+    closed_faces,
+    node_positions,
+    rod_mass_properties,
+    rod_poses_from_nodes,
     rotation_onto_face,
 )
 from physics.parameters import ParameterSpace
@@ -60,7 +66,8 @@ class ModelOptions:
     dt: physics step [s]; gravity [m/s^2] (0 switches it off); ground: whether the ground exists;
     friction: Coulomb coefficient rod-ground; spin_damping: axial damper of each rod [N m s]
     (see physics.cables; applied semi-implicitly, c / (1 + c dt / I_axial), so it is stable for
-    any value; 2.0 stops a spin within ~5 ms, which keeps the unobservable spin small); drop_height: gap between the lowest cap and the ground at build [m];
+    any value; 2.0 stops a spin within ~5 ms, which keeps the unobservable spin small);
+    drop_height: gap between the lowest cap and the ground at build [m];
     face: which of the 8 closed faces faces the ground at build (0..7); max_speed: a node faster
     than this [m/s] means the simulation diverged; motor: gains of the motor drivers.
     """
@@ -126,7 +133,7 @@ class T6Model:
     robot's encoders read them (see physics.actuators), or None to keep the previous targets.
     """
 
-    def __init__(self, theta: "np.ndarray | Mapping[str, float] | None" = None, *,
+    def __init__(self, theta: np.ndarray | Mapping[str, float] | None = None, *,
                  space: ParameterSpace | None = None, options: ModelOptions | None = None,
                  check_bounds: bool = False, effects: Sequence[Effect] = ()) -> None:
         self.effects = tuple(effects)
@@ -145,7 +152,7 @@ class T6Model:
         self.params, self.effect_values = split_theta(self.theta, self.space, self.effects, _SPACE.dim)
         p = self.params
         self.setup = ModelSetup.base(p, self.options.gravity, self.options.motor, self.options.dt)
-        for effect, values in zip(self.effects, self.effect_values):
+        for effect, values in zip(self.effects, self.effect_values, strict=True):
             effect.apply(self.setup, values, p)
         self.mass_properties = rod_mass_properties(
             p["density"], p["radius"], p["density_mp"], p["radius_mp"], p["rod_length"], p["rod_length_mp"])
@@ -153,7 +160,7 @@ class T6Model:
         self.end_a = np.ascontiguousarray(CABLE_NODES[:, 0])
         self.end_b = np.ascontiguousarray(CABLE_NODES[:, 1])
         self.build_rest_length = build_rest_lengths(p)
-        self.encoder_zero = build_rest_lengths(dict(zip(self.space.names, self.space.nominal.tolist())))
+        self.encoder_zero = build_rest_lengths(dict(zip(self.space.names, self.space.nominal.tolist(), strict=True)))
         self.encoder_offset = self.build_rest_length - self.encoder_zero
         c_spin = self.options.spin_damping
         self._spin_coefficient = c_spin / (1.0 + c_spin * self.options.dt / self.mass_properties.axial)
@@ -201,7 +208,7 @@ class T6Model:
             world.addSkeleton(ground)
         self.world, self.robot = world, robot
 
-    def _set_inertia(self, body, rod: int) -> None:
+    def _set_inertia(self, body: dart.dynamics.BodyNode, rod: int) -> None:
         """Mass, inertia about the centre of mass and its offset along the axis, with point masses
         m_k at z_k: M' = M + Σm_k, z_c = Σ m_k z_k / M', I_t' = I_t + M z_c² + Σ m_k (z_k - z_c)²."""
         mp = self.mass_properties
@@ -288,7 +295,7 @@ class T6Model:
         self.target = self.build_rest_length.copy()
         delay, now = self.setup.command_delay, self.time
         offset = (self.encoder_offset if reference == "encoder" else 0.0) + self.setup.command_offset
-        for t, target in zip(times, targets):
+        for t, target in zip(times, targets, strict=True):
             if t + delay <= now + 1e-9:
                 self.target = np.asarray(target, float) + offset
             else:

@@ -14,8 +14,8 @@ Format (docs/data-format.md):
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Iterable, Mapping
 
 import numpy as np
 import xarray as xr
@@ -30,24 +30,31 @@ FORMAT_VERSION = "tensegrid-trajectory-1"
 _AXES = ("x", "y", "z")
 
 
+def _variable(dims: tuple[str, ...], values: np.ndarray, units: str, long_name: str) -> tuple:
+    """One data variable of a trajectory Dataset: (dims, float values, attributes)."""
+    return dims, np.asarray(values, float), {"units": units, "long_name": long_name}
+
+
 def make_trajectory(time: np.ndarray, nodes: np.ndarray, controls: np.ndarray, *,
-                    velocities: np.ndarray | None = None, rest_length: np.ndarray | None = None, tension: np.ndarray | None = None,
+                    velocities: np.ndarray | None = None, rest_length: np.ndarray | None = None,
+                    tension: np.ndarray | None = None,
                     theta: np.ndarray | None = None, parameter_names: Iterable[str] | None = None,
                     attrs: Mapping[str, object] | None = None) -> xr.Dataset:
     """Assemble a validated trajectory Dataset.
 
     time (T,) [s]; nodes, velocities (T x 12 x 3) [m], [m/s]; controls, rest_length, tension (T x 24).
     """
+    nodal, cable = ("time", "node", "axis"), ("time", "cable")
     data: dict[str, tuple] = {
-        "nodes": (("time", "node", "axis"), np.asarray(nodes, float), {"units": "m", "long_name": "rod endpoint positions"}),
-        "controls": (("time", "cable"), np.asarray(controls, float), {"units": "m", "long_name": "commanded target rest lengths"}),
+        "nodes": _variable(nodal, nodes, "m", "rod endpoint positions"),
+        "controls": _variable(cable, controls, "m", "commanded target rest lengths"),
     }
     if velocities is not None:
-        data["velocities"] = (("time", "node", "axis"), np.asarray(velocities, float), {"units": "m/s", "long_name": "rod endpoint velocities"})
+        data["velocities"] = _variable(nodal, velocities, "m/s", "rod endpoint velocities")
     if rest_length is not None:
-        data["rest_length"] = (("time", "cable"), np.asarray(rest_length, float), {"units": "m", "long_name": "measured rest lengths"})
+        data["rest_length"] = _variable(cable, rest_length, "m", "measured rest lengths")
     if tension is not None:
-        data["tension"] = (("time", "cable"), np.asarray(tension, float), {"units": "N", "long_name": "cable tensions"})
+        data["tension"] = _variable(cable, tension, "N", "cable tensions")
     coords = {
         "time": ("time", np.asarray(time, float), {"units": "s"}),
         "node": np.arange(N_NODES),
@@ -78,7 +85,7 @@ def validate_trajectory(ds: xr.Dataset, *, source: str | None = None) -> xr.Data
         _fail(f"expected an xarray.Dataset, got {type(ds).__name__}.", source)
     for var in ("nodes", "controls"):
         if var not in ds.data_vars:
-            _fail(f"missing variable {var!r}; variables present: {sorted(ds.data_vars)}.", source)
+            _fail(f"missing variable {var!r}; variables present: {sorted(map(str, ds.data_vars))}.", source)
     if set(ds["nodes"].dims) != {"time", "node", "axis"}:
         _fail(f"'nodes' must have dims (time, node, axis), got {ds['nodes'].dims}.", source)
     if "velocities" in ds and set(ds["velocities"].dims) != {"time", "node", "axis"}:
@@ -111,7 +118,8 @@ def validate_trajectory(ds: xr.Dataset, *, source: str | None = None) -> xr.Data
     dt = np.diff(t)
     if np.any(dt <= 0):
         i = int(np.argmax(dt <= 0))
-        _fail(f"'time' must increase strictly; it does not at index {i + 1} (t = {t[i]} then {t[i + 1]}). Sort by time.", source)
+        _fail(f"'time' must increase strictly; it does not at index {i + 1} (t = {t[i]} then {t[i + 1]}). "
+              "Sort by time.", source)
     if np.max(np.abs(dt - dt.mean())) > 1e-6 * max(1.0, dt.mean()) + 1e-9:
         _fail(f"'time' must be uniformly sampled; steps range from {dt.min():.6g} to {dt.max():.6g} s. "
               "Resample to a uniform rate (e.g. ds.interp(time=...)).", source)
@@ -123,7 +131,7 @@ def validate_trajectory(ds: xr.Dataset, *, source: str | None = None) -> xr.Data
     return ds
 
 
-def save_trajectory(ds: xr.Dataset, path: "str | os.PathLike[str]") -> Path:
+def save_trajectory(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
     """Write a validated trajectory to netCDF (``.nc``); returns the path."""
     ds = validate_trajectory(ds)
     path = Path(path)
@@ -132,7 +140,7 @@ def save_trajectory(ds: xr.Dataset, path: "str | os.PathLike[str]") -> Path:
     return path
 
 
-def load_trajectory(path: "str | os.PathLike[str]") -> xr.Dataset:
+def load_trajectory(path: str | os.PathLike[str]) -> xr.Dataset:
     """Read and validate a trajectory netCDF file; explain what is wrong with a bad file."""
     path = Path(path)
     if not path.exists():
@@ -165,7 +173,9 @@ def describe_trajectory(ds: xr.Dataset) -> list[str]:
         lines.append("no rest-length readings: the actuator state is reconstructed with the model's actuator")
     reference = ds.attrs.get("length_reference")
     if reference is None:
-        lines.append("attribute length_reference absent: controls taken as encoder readings zeroed at the nominal design")
+        lines.append("attribute length_reference absent: controls taken as encoder readings zeroed at the "
+                     "nominal design")
     else:
-        lines.append(f"controls and rest lengths are {'true rest lengths' if reference == 'true' else 'encoder readings'}")
+        kind = "true rest lengths" if reference == "true" else "encoder readings"
+        lines.append(f"controls and rest lengths are {kind}")
     return lines

@@ -19,24 +19,40 @@ from __future__ import annotations
 
 from planners.actions import FlopAction, candidate_actions, face_headings
 from planners.errors import ActionError, EmptyBeliefError, GoalError, LevelError, PlannerError, RobotMismatchError
+from planners.learning import FlopEvidence
+from planners.lookahead import flops_to_go
 from planners.probe import (
-    ProbeRun, ProbeStep, information_gain, probe, probe_actions, restricted_belief, support, update_weights,
+    ProbeRun,
+    ProbeStep,
+    information_gain,
+    probe,
+    probe_actions,
+    restricted_belief,
+    support,
+    update_weights,
 )
 from planners.robot import SimulatedRobot
 from planners.robust import (
-    OBJECTIVES, FlopChoice, GoalRun, PlanStep, PointBelief, cvar, outcome_values, plan_flop, plan_to_goal, progress,
+    OBJECTIVES,
+    FlopChoice,
+    GoalRun,
+    PlanStep,
+    PointBelief,
+    cvar,
+    outcome_values,
+    plan_flop,
+    plan_to_goal,
+    progress,
     score,
 )
-from planners.learning import FlopEvidence
-from planners.lookahead import flops_to_go
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, rollouts, sample_rollouts
 
 __all__ = [
     "FlopAction", "candidate_actions", "face_headings",
     "PlannerError", "ActionError", "GoalError", "EmptyBeliefError", "RobotMismatchError", "LevelError",
     "RobotStart", "Outcome", "RolloutSet", "check_belief", "rollouts", "sample_rollouts", "SimulatedRobot",
-    "OBJECTIVES", "PointBelief", "cvar", "progress", "outcome_values", "flops_to_go", "score", "FlopChoice", "plan_flop", "PlanStep", "GoalRun",
-    "plan_to_goal",
+    "OBJECTIVES", "PointBelief", "cvar", "progress", "outcome_values", "flops_to_go", "score", "FlopChoice",
+    "plan_flop", "PlanStep", "GoalRun", "plan_to_goal",
     "support", "information_gain", "update_weights", "probe_actions", "restricted_belief", "ProbeStep", "ProbeRun",
     "probe", "FlopEvidence",
 ]

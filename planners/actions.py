@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -56,7 +57,8 @@ class FlopAction:
         for name in ("heading", "change", "start", "stop", "duration"):
             object.__setattr__(self, name, _number(getattr(self, name), name))
         if not 0.0 < self.change < 0.5:
-            raise ActionError(f"change must be a relative rest-length change in (0, 0.5), e.g. 0.2, got {self.change!r}.")
+            raise ActionError("change must be a relative rest-length change in (0, 0.5), e.g. 0.2, got "
+                              f"{self.change!r}.")
         if isinstance(self.n_cables, bool) or not isinstance(self.n_cables, (int, np.integer)) or \
                 not 1 <= int(self.n_cables) <= N_CABLES // 2:
             raise ActionError(f"n_cables must be an integer in 1..{N_CABLES // 2}, got {self.n_cables!r}.")
@@ -104,13 +106,15 @@ def face_headings(nodes: np.ndarray) -> np.ndarray:
     return np.sort(np.mod(out, 2 * np.pi))
 
 
-def _headings(headings: "int | Sequence[float] | np.ndarray | None", nodes: np.ndarray | None) -> np.ndarray:
+def _headings(headings: int | Sequence[float] | np.ndarray | None, nodes: np.ndarray | None) -> np.ndarray:
     if headings is None:
         if nodes is None:
             raise ActionError("candidate_actions needs headings (an int or a list of radians) or nodes (12 x 3) of "
                               "the resting state to take the three edge normals from.")
         return face_headings(nodes)
-    if isinstance(headings, (int, np.integer)) and not isinstance(headings, bool):
+    if isinstance(headings, bool):
+        raise ActionError(f"headings must be an int count or a list of radians, got {headings!r}.")
+    if isinstance(headings, (int, np.integer)):
         if headings < 1:
             raise ActionError(f"headings must be >= 1 evenly spaced directions, got {headings!r}.")
         return 2 * np.pi * np.arange(int(headings)) / int(headings)
@@ -120,7 +124,7 @@ def _headings(headings: "int | Sequence[float] | np.ndarray | None", nodes: np.n
     return out
 
 
-def candidate_actions(headings: "int | Sequence[float] | np.ndarray | None" = None, *,
+def candidate_actions(headings: int | Sequence[float] | np.ndarray | None = None, *,
                       nodes: np.ndarray | None = None, changes: Sequence[float] = DEFAULT_CHANGES,
                       n_cables: Sequence[int] = DEFAULT_N_CABLES, start: float = 0.2, stop: float = 1.2,
                       duration: float = 2.0) -> tuple[FlopAction, ...]:

@@ -2,7 +2,8 @@
 
 ::
 
-    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2] [--no-learn] [--truth T] [--compare] --out DIR
+    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2]
+                   [--no-learn] [--truth T] [--compare] --out DIR
     tensegrid probe BELIEF.nc [--truth T] [--steps N] [--cells M] [--sigma S] [--targets NAME ...] --out DIR
 
 The robot is simulated at the truth T: ``nominal`` (default), a JSON file ({name: value} or 15
@@ -24,6 +25,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from belief.belief import Belief
+    from belief.sampling import SamplingBelief
     from planners.robust import PlanStep
 
 __all__ = ["register_plan", "register_probe", "read_truth"]
@@ -52,7 +54,7 @@ def read_truth(value: str) -> np.ndarray:
     return np.asarray(ds["theta"].sel(parameter=list(space.names)).values, dtype=float)
 
 
-def _load_belief(path: str, group: str | None) -> "Belief":
+def _load_belief(path: str, group: str | None) -> Belief:
     """The Belief in ``path`` (root, or ``group``; a result.nc of ``tensegrid identify`` holds it in "belief")."""
     from belief.belief import Belief
     from belief.errors import BeliefError
@@ -67,14 +69,15 @@ def _load_belief(path: str, group: str | None) -> "Belief":
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("belief", help="a belief file (Belief.save; tensegrid identify writes one inside result.nc)")
-    p.add_argument("--group", default=None, help="netCDF group holding the belief (default: the root, else 'belief' as in result.nc)")
+    p.add_argument("--group", default=None,
+                   help="netCDF group holding the belief (default: the root, else 'belief' as in result.nc)")
     p.add_argument("--truth", default="nominal", help="θ* of the simulated robot: nominal, FILE.json or DATA.nc")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--workers", type=int, default=0, help="dask worker processes for the rollouts (0 = serial)")
     p.add_argument("--out", required=True, help="output directory")
 
 
-def register_plan(subparsers: "argparse._SubParsersAction[Any]") -> None:
+def register_plan(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``tensegrid plan``."""
     p = subparsers.add_parser("plan", help="flop to a goal, replanning under the belief (robust plan)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -93,7 +96,7 @@ def register_plan(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.set_defaults(func=run_plan)
 
 
-def register_probe(subparsers: "argparse._SubParsersAction[Any]") -> None:
+def register_probe(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``tensegrid probe``."""
     p = subparsers.add_parser("probe", help="active identification: probe flops with the largest expected gain",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -106,7 +109,7 @@ def register_probe(subparsers: "argparse._SubParsersAction[Any]") -> None:
     p.set_defaults(func=run_probe)
 
 
-def _step_json(step: "PlanStep") -> dict[str, Any]:
+def _step_json(step: PlanStep) -> dict[str, Any]:
     return {"action": step.choice.action.as_dict(), "label": step.choice.action.label,
             "scores": step.choice.scores.tolist(), "candidates": [a.label for a in step.choice.rollouts.actions],
             "status": step.outcome.status, "face": list(step.outcome.face), "after": step.after.tolist(),
@@ -121,7 +124,7 @@ def run_plan(args: argparse.Namespace) -> int:
 
     belief = _load_belief(args.belief, args.group)
     truth = read_truth(args.truth)
-    planners = {"robust": belief}
+    planners: dict[str, SamplingBelief] = {"robust": belief}
     if args.compare:
         planners.update({"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)})
     os.makedirs(args.out, exist_ok=True)

@@ -22,7 +22,7 @@ edge e (:func:`planners.actions.face_headings`). Not "ok" outcomes count as stay
 """
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -99,13 +99,13 @@ def flops_to_go(rs: RolloutSet, goal: np.ndarray, radius: float,
     out = np.empty(rs.ok.shape)
     for a, row in enumerate(rs.outcomes):
         for k, o in enumerate(row):
-            stays = not (o.ok and o.final is not None)
             c1 = c0 if not o.ok else c0 + o.displacement
             d1 = float(distance_to_disc(c1, g, radius))
             if d1 == 0.0:
                 out[a, k] = 0.0
                 continue
-            face, nodes = (tuple(rs.start.face), rs.start.nodes) if stays else (tuple(o.face), o.final.nodes)
+            final = o.final if o.ok else None           # None: the robot stays on its start face
+            face, nodes = (tuple(rs.start.face), rs.start.nodes) if final is None else (tuple(o.face), final.nodes)
             c2 = c1[None] + _second(face, np.asarray(nodes), L, nxt)
             far = float(np.linalg.norm(g - c2, axis=1).min())
             out[a, k] = 1.0 + min(d1, float(distance_to_disc(c2, g, radius).min())) / L + TIE_BREAK * far / L

@@ -11,7 +11,7 @@
 from __future__ import annotations
 
 import os
-from typing import Mapping
+from collections.abc import Mapping
 
 import matplotlib
 
@@ -25,12 +25,12 @@ from planners.robust import GoalRun, cvar  # noqa: E402
 __all__ = ["plot_plan", "plot_probe"]
 
 
-def _face(ax: "plt.Axes", nodes: np.ndarray, color: str) -> None:
+def _face(ax: plt.Axes, nodes: np.ndarray, color: str) -> None:
     tri = nodes[np.argsort(nodes[:, 2])[:3], :2]
     ax.fill(tri[:, 0], tri[:, 1], facecolor=color, edgecolor=color, alpha=0.18, lw=0.8)
 
 
-def _ground(ax: "plt.Axes", run: GoalRun, others: Mapping[str, GoalRun]) -> None:
+def _ground(ax: plt.Axes, run: GoalRun, others: Mapping[str, GoalRun]) -> None:
     ax.add_patch(plt.Circle(tuple(run.goal), run.radius, color="C2", alpha=0.15))
     ax.plot(*run.goal, "*", color="C2", ms=14, label="goal")
     for step in run.steps:
@@ -56,7 +56,7 @@ def _ground(ax: "plt.Axes", run: GoalRun, others: Mapping[str, GoalRun]) -> None
                  f"(final distance {run.final_distance:.2f} m)", fontsize=9)
 
 
-def _spread(ax: "plt.Axes", run: GoalRun) -> None:
+def _spread(ax: plt.Axes, run: GoalRun) -> None:
     choice = run.steps[0].choice
     prog = choice.progress if choice.values is None else choice.values
     for a in range(prog.shape[0]):
@@ -73,7 +73,7 @@ def _spread(ax: "plt.Axes", run: GoalRun) -> None:
     ax.legend(fontsize=7)
 
 
-def plot_plan(run: GoalRun, path: "str | os.PathLike[str]", *, others: Mapping[str, GoalRun] | None = None) -> None:
+def plot_plan(run: GoalRun, path: str | os.PathLike[str], *, others: Mapping[str, GoalRun] | None = None) -> None:
     """Write the plan figure (module docstring) of ``run``, with ``others`` (name -> run) compared."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.2), gridspec_kw={"width_ratios": [1.2, 1]})
     _ground(axes[0], run, dict(others or {}))
@@ -84,7 +84,7 @@ def plot_plan(run: GoalRun, path: "str | os.PathLike[str]", *, others: Mapping[s
     plt.close(fig)
 
 
-def plot_probe(run: ProbeRun, path: "str | os.PathLike[str]") -> None:
+def plot_probe(run: ProbeRun, path: str | os.PathLike[str]) -> None:
     """Entropy of the probed P [nats] before/after each probe and the chosen action's expected gain."""
     fig, ax = plt.subplots(figsize=(6, 4))
     if run.steps:

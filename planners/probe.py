@@ -40,23 +40,23 @@ identified" (the interval would be a cell's point, not a credible region).
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
 
 import numpy as np
 from scipy.special import logsumexp
 from tqdm.auto import tqdm
 
 from belief.belief import Belief
-
-#: fewer effective probed cells than this and no parameter is "identified" (module docstring)
-MIN_CELLS = 3
 from belief.noise import effective_size
 from physics.pool import DaskPool
 from planners.actions import FlopAction, candidate_actions
 from planners.errors import EmptyBeliefError, PlannerError
 from planners.robot import SimulatedRobot
 from planners.rollouts import RolloutSet, check_belief, pool_for, rollouts
+
+#: fewer effective probed cells than this and no parameter is "identified" (module docstring)
+MIN_CELLS = 3
 
 __all__ = ["support", "observations", "noise_scale", "information_gain", "update_weights", "probe_actions",
            "restricted_belief", "ProbeStep", "ProbeRun", "probe"]
@@ -190,7 +190,7 @@ def _choose(gains: np.ndarray, choose: str, rng: np.random.Generator) -> int:
     return int(rng.integers(len(gains)))
 
 
-def probe(belief: Belief, robot: "SimulatedRobot | np.ndarray | None", *, steps: int = 4, cells: int = 16,
+def probe(belief: Belief, robot: SimulatedRobot | np.ndarray | None, *, steps: int = 4, cells: int = 16,
           sigma: float = 0.02, seed: int = 0, how: str = "sample", min_gain: float = 0.05,
           targets: Sequence[str] = (), actions: Sequence[FlopAction] | None = None, choose: str = "gain",
           duration: float = 1.5, actions_kw: dict | None = None, pool: DaskPool | None = None,
@@ -229,7 +229,7 @@ def probe(belief: Belief, robot: "SimulatedRobot | np.ndarray | None", *, steps:
             h0, w = _entropy(w), update_weights(w, F[a], ok[a], outcome.nodes, outcome.ok, s2[a])
             b = restricted_belief(belief, idx, w)
             out_steps.append(ProbeStep(acts[a], float(gains[a]), gains, h0, _entropy(w), w.copy(),
-                                       dict(zip(b.space.names, b.verdict)), outcome.status))
+                                       dict(zip(b.space.names, b.verdict, strict=True)), outcome.status))
             if targets and all(b.verdicts[t][0] == "identified" for t in targets):
                 stopped = "identified"
                 break

@@ -30,7 +30,7 @@ class SimulatedRobot:
     ``rest_speed`` [m/s], ``rest_limit`` [s]: the wait after each flop (module docstring).
     """
 
-    def __init__(self, theta: "np.ndarray | None" = None, *, settle: float = 2.0, noise: float = 0.0, seed: int = 0,
+    def __init__(self, theta: np.ndarray | None = None, *, settle: float = 2.0, noise: float = 0.0, seed: int = 0,
                  rest_speed: float = 0.05, rest_limit: float = 2.0) -> None:
         space = ParameterSpace.t6()
         self.theta = space.nominal.copy() if theta is None else space.as_array(theta, check_bounds=False)

@@ -25,8 +25,9 @@ planner on a :class:`PointBelief` (all mass on one θ).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -59,7 +60,7 @@ class PointBelief:
         self.p = np.ones(1)
         self.n_cells = 1
 
-    def sample(self, n: int, *, seed: "int | np.random.Generator | None" = None) -> np.ndarray:
+    def sample(self, n: int, *, seed: int | np.random.Generator | None = None) -> np.ndarray:
         """n copies of θ, ``n x D``."""
         return np.repeat(self.theta, int(n), axis=0)
 
@@ -102,7 +103,8 @@ def progress(displacement: np.ndarray, ok: np.ndarray, start: np.ndarray, goal: 
 
 
 def outcome_values(rs: RolloutSet, goal: np.ndarray, *, horizon: int, radius: float,
-                   prog: np.ndarray | None = None, nxt: Mapping[tuple[int, ...], np.ndarray] | None = None) -> np.ndarray:
+                   prog: np.ndarray | None = None,
+                   nxt: Mapping[tuple[int, ...], np.ndarray] | None = None) -> np.ndarray:
     """The value of every outcome, ``n_a x K``: progress [m] (``horizon`` 1) or −flops to go (2; ``nxt``:
     the simulated next flops of :func:`planners.lookahead.next_flops`)."""
     if horizon not in (1, 2):
@@ -171,7 +173,7 @@ class FlopChoice:
     values: np.ndarray | None = field(default=None, repr=False)
 
 
-def _start(start: "RobotStart | T6Model | None") -> RobotStart:
+def _start(start: RobotStart | T6Model | None) -> RobotStart:
     if start is None:
         return RobotStart.settled()
     if isinstance(start, RobotStart):
@@ -182,7 +184,7 @@ def _start(start: "RobotStart | T6Model | None") -> RobotStart:
                        f"{type(start).__name__}.")
 
 
-def plan_flop(belief: SamplingBelief, start: "RobotStart | T6Model | None", goal: Sequence[float], *,
+def plan_flop(belief: SamplingBelief, start: RobotStart | T6Model | None, goal: np.ndarray | Sequence[float], *,
               actions: Sequence[FlopAction] | None = None,
               objective: str = "cvar", level: float = 0.5, samples: int = 16, seed: int = 0,
               threshold: float = 0.2, radius: float = 0.5, max_distance: float = 20.0, horizon: int = 2,
@@ -243,8 +245,9 @@ class GoalRun:
         return float(np.linalg.norm(self.path[-1] - self.goal))
 
 
-def plan_to_goal(belief: SamplingBelief, robot: "SimulatedRobot | np.ndarray | None", goal: Sequence[float], *,
-                 radius: float = 0.5, max_steps: int = 8, objective: str = "cvar", level: float = 0.5,
+def plan_to_goal(belief: SamplingBelief, robot: SimulatedRobot | np.ndarray | None,
+                 goal: np.ndarray | Sequence[float], *, radius: float = 0.5, max_steps: int = 8,
+                 objective: str = "cvar", level: float = 0.5,
                  samples: int = 16, seed: int = 0, threshold: float = 0.2, horizon: int = 2,
                  learn: bool = True, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
                  pool: DaskPool | None = None, n_workers: int = 0, progress: bool = True) -> GoalRun:

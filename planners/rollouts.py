@@ -20,8 +20,9 @@ rows (cells drawn twice) are simulated once.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -63,12 +64,12 @@ class RobotStart:
         object.__setattr__(self, "readings", readings)
 
     @classmethod
-    def from_model(cls, model: T6Model) -> "RobotStart":
+    def from_model(cls, model: T6Model) -> RobotStart:
         """The sensed state of a :class:`T6Model` (observed nodes, encoder readings)."""
         return cls(model.observe(model.node_positions()), model.rest_length_readings())
 
     @classmethod
-    def settled(cls, theta: "np.ndarray | None" = None, *, settle: float = 2.0) -> "RobotStart":
+    def settled(cls, theta: np.ndarray | None = None, *, settle: float = 2.0) -> RobotStart:
         """The robot at θ (nominal by default) after ``settle`` seconds of rest from its build state."""
         return cls.from_model(settled_model(theta, settle=settle))
 
@@ -119,7 +120,7 @@ class _PlannedFlop(FlopController):
         return self._fixed
 
 
-def place(theta: "np.ndarray | None", start: RobotStart) -> T6Model:
+def place(theta: np.ndarray | None, start: RobotStart) -> T6Model:
     """A T6Model at θ (``D``; nominal if None) at rest at ``start``'s nodes, lowest cap on the ground."""
     model = T6Model(theta)
     rest = start.readings + model.encoder_offset
@@ -141,8 +142,8 @@ def plan_all(actions: Sequence[FlopAction], start: RobotStart, pool: DaskPool) -
     keys = [(a.heading, a.change) for a in actions]
     distinct = list(dict.fromkeys(keys))
     firsts = [actions[keys.index(k)] for k in distinct]
-    base = dict(zip(distinct, pool.map_rows(_plan_row, start, firsts)))
-    return tuple(select_cables(base[k], a.n_cables) for k, a in zip(keys, actions))
+    base = dict(zip(distinct, pool.map_rows(_plan_row, start, firsts), strict=True))
+    return tuple(select_cables(base[k], a.n_cables) for k, a in zip(keys, actions, strict=True))
 
 
 def _rest(model: T6Model, speed: float, limit: float) -> None:
@@ -287,16 +288,17 @@ def check_belief(belief: SamplingBelief) -> None:
     p = np.asarray(belief.p, dtype=float)
     t6 = ParameterSpace.t6()
     if tuple(space.names) != tuple(t6.names):
-        raise RobotMismatchError(f"the belief is over {space.dim} parameters {list(space.names)[:5]}..., but the planner "
-                                 f"simulates the T6 ({t6.dim} parameters {list(t6.names)[:3]}...); identify on "
-                                 "trajectories of this robot (tensegrid identify) and plan with that belief.")
+        raise RobotMismatchError(f"the belief is over {space.dim} parameters {list(space.names)[:5]}..., "
+                                 f"but the planner simulates the T6 ({t6.dim} parameters {list(t6.names)[:3]}...); "
+                                 "identify on trajectories of this robot (tensegrid identify) and plan with that "
+                                 "belief.")
     if p.size == 0 or not np.all(np.isfinite(p)) or not p.sum() > 0:
         raise EmptyBeliefError(f"the belief has {p.size} cells and total mass {float(p.sum()) if p.size else 0.0!r}; "
                                "it holds nothing to plan with: run an identification (tensegrid identify) first.")
 
 
-def sample_rollouts(belief: SamplingBelief, actions: Sequence[FlopAction], start: RobotStart, *, samples: int, seed: int,
-                    **kw: Any) -> RolloutSet:
+def sample_rollouts(belief: SamplingBelief, actions: Sequence[FlopAction], start: RobotStart, *, samples: int,
+                    seed: int, **kw: Any) -> RolloutSet:
     """:func:`rollouts` under θ = ``belief.sample(samples, seed=seed)`` (K = samples x 15)."""
     check_belief(belief)
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:

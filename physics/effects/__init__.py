@@ -3,12 +3,17 @@ world, forces, components, sensing: the catalog; catalog: all of them by name)."
 from physics.effects.base import Effect, ForceTerm, ModelSetup, model_space, split_theta
 from physics.effects.catalog import EFFECT_TYPES, catalog, effect_from_config
 from physics.effects.components import (
-    ActuatorDelay, CableHysteresis, EncoderOffset, NonlinearStiffness, RateLimitedActuation,
+    ActuatorDelay,
+    CableHysteresis,
+    EncoderOffset,
+    NonlinearStiffness,
+    RateLimitedActuation,
 )
 from physics.effects.forces import AirDrag, GroundViscosity
 from physics.effects.sensing import SensorBias
 from physics.effects.world import EndCapRadius, GroundSlope, PointMass
 
 __all__ = ["Effect", "ForceTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
-           "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness", "RateLimitedActuation",
+           "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness",
+           "RateLimitedActuation",
            "AirDrag", "GroundViscosity", "SensorBias", "EndCapRadius", "GroundSlope", "PointMass"]

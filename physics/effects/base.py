@@ -20,8 +20,9 @@ A model built from the T6 and effects e_1..e_m has the parameter space
 from __future__ import annotations
 
 import abc
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, ClassVar, Mapping, Sequence
+from typing import ClassVar
 
 import numpy as np
 
@@ -55,7 +56,7 @@ class ModelSetup:
     observation_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @classmethod
-    def base(cls, params: Mapping[str, float], gravity: float, gains: MotorGains, dt: float) -> "ModelSetup":
+    def base(cls, params: Mapping[str, float], gravity: float, gains: MotorGains, dt: float) -> ModelSetup:
         """The T6 without effects: vertical gravity, caps of radius ``radius``, linear cables, motors."""
         return cls(gravity=np.array([0.0, 0.0, -gravity]), cap_radius=float(params["radius"]),
                    cable=CableLaw(float(params["stiffnessActive"]), float(params["damping"])),
@@ -129,6 +130,6 @@ def model_space(effects: Sequence[Effect] = (), base: ParameterSpace | None = No
 def split_theta(theta: np.ndarray, space: ParameterSpace, effects: Sequence[Effect],
                 n_base: int) -> tuple[dict[str, float], list[dict[str, float]]]:
     """θ (D,) -> (T6 parameters by name, one dict of parameter values per effect)."""
-    values = dict(zip(space.names, np.asarray(theta, float).tolist()))
+    values = dict(zip(space.names, np.asarray(theta, float).tolist(), strict=True))
     base = {n: values[n] for n in space.names[:n_base]}
     return base, [{p.name: values[p.name] for p in e.parameters()} for e in effects]

@@ -3,7 +3,11 @@ from __future__ import annotations
 
 from physics.effects.base import Effect
 from physics.effects.components import (
-    ActuatorDelay, CableHysteresis, EncoderOffset, NonlinearStiffness, RateLimitedActuation,
+    ActuatorDelay,
+    CableHysteresis,
+    EncoderOffset,
+    NonlinearStiffness,
+    RateLimitedActuation,
 )
 from physics.effects.forces import AirDrag, GroundViscosity
 from physics.effects.sensing import SensorBias

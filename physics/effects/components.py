@@ -1,8 +1,8 @@
 """Effects that replace a component of the model: the cable law's coefficients and the actuator."""
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
-from typing import Mapping
 
 import numpy as np
 

@@ -3,7 +3,7 @@
 Both act on the nodes (rod ends): a rod's drag is lumped on its two ends."""
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from numba import njit

@@ -1,7 +1,7 @@
 """Effects on the observations: a constant bias of the motion-capture positions."""
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

@@ -1,7 +1,7 @@
 """Effects on the world's setup: a tilted ground, the end caps' contact radius, a point mass on a rod."""
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -61,7 +61,8 @@ class PointMass(Effect):
         if rod not in range(6):
             raise ParameterError(f"PointMass.rod must be a rod index in 0..5, got {rod!r}.")
         if not (-1.0 <= position <= 1.0):
-            raise ParameterError(f"PointMass.position must be in [-1, 1] (fraction of the half length), got {position!r}.")
+            raise ParameterError("PointMass.position must be in [-1, 1] (fraction of the half length), got "
+                                 f"{position!r}.")
         self.rod, self.position = int(rod), float(position)
 
     def parameters(self) -> tuple[Parameter, ...]:

@@ -53,6 +53,7 @@ def test_the_finishing_step_counts_in_the_budget_and_never_raises_the_best_error
     assert result.best_error <= bo.best_error + 1e-12
     assert step["error"] <= step["start_error"] + 1e-12
     assert counting.residual_rows >= step["evaluations"]
+    assert f"finishing Gauss-Newton step ({step['evaluations']} simulations" in result.summary()
     if step["improved"]:
         assert result.best_error == pytest.approx(float(push(result.best_theta.values)), rel=1e-9)
 

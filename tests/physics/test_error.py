@@ -96,6 +96,12 @@ def test_divergence_raises_alone_and_is_recorded_in_a_batch(space, flop_data):
     assert (result.seconds > 0).all()
 
 
+def test_calling_on_a_batch_points_to_evaluate_batch(space, flop_data):
+    E = TrajectoryError(flop_data.isel(time=slice(0, 50)))
+    with pytest.raises(ParameterError, match="evaluate_batch"):
+        E(np.stack([space.nominal, space.nominal]))
+
+
 def test_residuals_batch_matches_residuals_and_marks_divergence(space, flop_data):
     E = TrajectoryError(flop_data.isel(time=slice(0, 50)), horizon=5, loss="squared")
     diverging = space.replace(stiffnessActive=1e7)
@@ -116,7 +122,7 @@ def test_batch_on_a_local_dask_cluster_matches_serial(space, flop_data):
         serial = E.evaluate_batch(thetas, parallel=False)
         np.testing.assert_array_equal(parallel.errors, serial.errors)
         np.testing.assert_array_equal(parallel.parts, serial.parts)
-        np.testing.assert_array_equal(E(thetas), serial.errors)
+        np.testing.assert_array_equal([E(theta) for theta in thetas], serial.errors)
         assert [e for e, _ in parallel] == serial.errors.tolist()
     assert parallel.status == ("ok",) * 4
     # every row was handed over once as it finished, with the same values

@@ -31,6 +31,7 @@ def test_every_public_name_exists():
     import physics
     missing = [name for name in physics.__all__ if not hasattr(physics, name)]
     assert not missing
+    assert sorted(physics.__all__) == sorted(physics._ORIGIN)
     try:
         physics.no_such_name  # noqa: B018
     except AttributeError as exc:
