@@ -90,24 +90,24 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
 def _push_objective(seed: int) -> tuple[Any, Any]:
     import numpy as np
 
-    from physics.push import PushError, generate_push_data, push_space
+    from physics.push import PushObjective, generate_push_data, push_space
 
     space = push_space()
     truth = np.array([1.0, 0.4])
     impulses, observed = generate_push_data(truth, n=8, noise_std=0.05, seed=seed)
-    return PushError(impulses, observed, space=space, noise_std=0.05), truth
+    return PushObjective(impulses, observed, space=space, noise_std=0.05), truth
 
 
 def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, *, title: str = "") -> None:
     """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ, for one trajectory."""
-    from physics.error import TrajectoryError
     from physics.errors import PhysicsError
     from physics.plotting import plot_observed_vs_predicted
+    from physics.trajectory_objective import TrajectoryObjective
 
     thetas = {"nominal": space.nominal, "best": result.best_theta.values,
               "posterior mean": result.marginals["mean"].values}
     preds = {}
-    with TrajectoryError([dataset], horizon="rollout", n_workers=0) as roll:
+    with TrajectoryObjective([dataset], horizon="rollout", n_workers=0) as roll:
         for name, th in thetas.items():
             try:
                 preds[name] = roll.predictions(th)[0]
@@ -137,15 +137,15 @@ def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
     if args.toy == "push":
         objective, truth = _push_objective(args.seed)
         return objective, truth, []
-    from physics.error import TrajectoryError
     from physics.trajectory import load_trajectory
+    from physics.trajectory_objective import TrajectoryObjective
 
     datasets = [load_trajectory(path) for path in args.data]
     if not getattr(args, "skip_checks", False):
         from physics.cli_check import preflight
 
         preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
-    objective = TrajectoryError(datasets, horizon=1, loss=args.loss, windows=args.windows,
+    objective = TrajectoryObjective(datasets, horizon=1, loss=args.loss, windows=args.windows,
                                 n_workers=args.workers if args.workers > 1 else 0)
     return objective, _data_truth(datasets, objective.space), datasets
 

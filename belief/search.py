@@ -36,7 +36,7 @@ from fixed values and runs single-threaded, ties break to the lowest cell index)
 run that is killed and resumed ends with exactly the history (cells, z, θ, E, status) of an
 uninterrupted run (wall-clock ``seconds`` differ, and so can a ``time_budget`` stop). Each
 evaluation is journalled as soon as it finishes, also inside a parallel batch when
-``objective.evaluate_batch`` takes ``on_result`` (physics.TrajectoryError does): a kill mid-batch
+``objective.evaluate_batch`` takes ``on_result`` (physics.TrajectoryObjective does): a kill mid-batch
 loses only the evaluations still running, and the resumed run evaluates just the batch's missing
 cells. The returned history is ordered by batch, then cell index, because a parallel batch
 finishes in any order.

@@ -45,7 +45,7 @@ import numpy as np
 from belief import PosteriorConfig, SobolCandidates, identify
 from embeddings import Identity
 from physics import (
-    FlopController, ModelOptions, MotorGains, ParameterSpace, TrajectoryError, load_trajectory, simulate,
+    FlopController, ModelOptions, MotorGains, ParameterSpace, TrajectoryObjective, load_trajectory, simulate,
 )
 
 SCENARIOS = ("testbed1", "testbed3", "own", "mismatch")
@@ -92,7 +92,7 @@ def identify_problem(seed: int, scenario: str, budgets: list[int], *, rule: str 
     """Outcomes of problem ``seed`` at each budget (one run, smaller budgets replayed from its journal)."""
     theta, data = problem_data(seed, scenario, duration=duration)
     space = ParameterSpace.t6()
-    objective = TrajectoryError(data, loss="squared", n_workers=0)
+    objective = TrajectoryObjective(data, loss="squared", n_workers=0)
     decoder = Identity(space)
     grid = SobolCandidates.for_decoder(decoder, n=candidates, seed=seed)
     cfg = PosteriorConfig(noise_rule=rule)
@@ -112,7 +112,7 @@ def shared_bias(seed: int, scenario: str, budget: int, *, windows: int = 6) -> n
     """(E_s(θ*) − E_s(θ̂)) / E_s(θ̂) per segment s (%), θ̂ the best of ``budget`` BO evaluations."""
     theta, data = problem_data(seed, scenario)
     space = ParameterSpace.t6()
-    objective = TrajectoryError(data, loss="squared", n_workers=0, windows=windows)
+    objective = TrajectoryObjective(data, loss="squared", n_workers=0, windows=windows)
     decoder = Identity(space)
     grid = SobolCandidates.for_decoder(decoder, n=4096, seed=seed)
     res = identify(objective, decoder, grid, budget=budget, seed=seed, progress=False, posterior=None)

@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from criticism import DiagnoseConfig, diagnose
-from physics import FlopController, ParameterSpace, TrajectoryError, load_trajectory, simulate
+from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, model_space
 
 #: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
@@ -104,7 +104,7 @@ def larger_effect(name: str, data: list, truth: dict) -> str:
     costs = {}
     for missing in effects:
         kept = [e for e in effects if e is not missing]
-        objective = TrajectoryError(data[2], horizon=25, loss="squared", effects=kept, n_workers=0)
+        objective = TrajectoryObjective(data[2], horizon=25, loss="squared", effects=kept, n_workers=0)
         space = model_space(kept)
         costs[missing.name] = objective(space.as_array({n: v for n, v in truth.items() if n in space.names},
                                                        check_bounds=False))

@@ -293,7 +293,7 @@ def run_problem(space: Any, truth: np.ndarray, noise: float, problem: dict[str, 
                 data: tuple[list, list] | None = None) -> None:
     """Run ``methods`` on one problem (data simulated by this project's model unless ``data`` =
     (fitted, held-out) trajectories are given) and append their rows."""
-    from physics import TrajectoryError
+    from physics import TrajectoryObjective
 
     done = _done(out / "paper.jsonl")
     key = (problem["truth_kind"], problem["truth_index"], noise, seed, settings.budget)
@@ -302,8 +302,8 @@ def run_problem(space: Any, truth: np.ndarray, noise: float, problem: dict[str, 
         return
     fit, held = data or (observe(space, truth, FIT_FLOPS, settings, noise, seed),
                          observe(space, truth, HELD_OUT_FLOPS, settings, noise, seed + 100))
-    with TrajectoryError(fit, loss="squared", windows=3, n_workers=0) as objective, \
-            TrajectoryError(held, loss="squared", windows=1, n_workers=0) as held_out:
+    with TrajectoryObjective(fit, loss="squared", windows=3, n_workers=0) as objective, \
+            TrajectoryObjective(held, loss="squared", windows=1, n_workers=0) as held_out:
         for name in methods:
             start = time.perf_counter()
             recorder = Recorder(objective)

@@ -50,7 +50,7 @@ def best_so_far(fit: np.ndarray, held: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    from physics import TrajectoryError
+    from physics import TrajectoryObjective
     from physics.parameters import ParameterSpace
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -69,8 +69,8 @@ def main() -> None:
         for truth in truths:
             fit = observe(space, truth, FIT_FLOPS, settings, 0.0, 0)
             held = observe(space, truth, HELD_OUT_FLOPS, settings, 0.0, 100)
-            with TrajectoryError(fit, loss="squared", windows=3, n_workers=0) as e_fit, \
-                    TrajectoryError(held, loss="squared", windows=1, n_workers=0) as e_held:
+            with TrajectoryObjective(fit, loss="squared", windows=3, n_workers=0) as e_fit, \
+                    TrajectoryObjective(held, loss="squared", windows=1, n_workers=0) as e_held:
                 for seed in range(args.seeds):
                     for kind, thetas in designs(space, decoder, settings, seed, args.first).items():
                         curves[kind].append(best_so_far(np.asarray(e_fit(thetas)), np.asarray(e_held(thetas))))

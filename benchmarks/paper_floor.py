@@ -114,7 +114,7 @@ def main() -> None:
     parser.add_argument("--chain", type=int, nargs="+", default=[1], help="target horizons, in stored horizons")
     parser.add_argument("--spread-only", action="store_true", help="only the table of where each image lies")
     args = parser.parse_args()
-    from physics import TrajectoryError
+    from physics import TrajectoryObjective
     from physics.parameters import ParameterSpace
 
     warnings.simplefilter("ignore")
@@ -136,7 +136,7 @@ def main() -> None:
     print("\n| decoder | truth | E(θ*) | max error of decode(encode(θ*)) | E there | E at the nearest grid point |")
     print("|---|---|---|---|---|---|")
     for label, truth in truths:
-        with TrajectoryError(observe(space, truth, FIT_FLOPS, settings, 0.0, 0), loss="squared", windows=3,
+        with TrajectoryObjective(observe(space, truth, FIT_FLOPS, settings, 0.0, 0), loss="squared", windows=3,
                              n_workers=0) as objective:
             at_truth = float(objective(truth))
             for name, decoder in decoders.items():

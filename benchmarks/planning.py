@@ -36,7 +36,7 @@ import numpy as np
 
 from belief import SobolCandidates, identify
 from embeddings import Identity
-from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+from physics import FlopController, ParameterSpace, TrajectoryObjective, simulate
 from physics.pool import DaskPool
 from planners import FlopAction, PointBelief, SimulatedRobot, plan_to_goal, probe
 from planners.rollouts import warm_up
@@ -57,7 +57,7 @@ def make_belief(theta: np.ndarray, seed: int, *, candidates: int, budget: int):
     """A belief from a short identification on one 1.5 s flop at θ (1 mm noise)."""
     data = simulate(theta, controller=FlopController(float(np.random.default_rng(seed).uniform(0, 2 * np.pi))),
                     duration=1.5, noise=1e-3, seed=seed)
-    with TrajectoryError(data, loss="squared", n_workers=0) as E:
+    with TrajectoryObjective(data, loss="squared", n_workers=0) as E:
         dec = Identity(E.space)
         res = identify(E, dec, SobolCandidates.for_decoder(dec, n=candidates, seed=seed), budget=budget, seed=seed,
                        progress=False)
@@ -88,7 +88,7 @@ def held_out_errors(theta: np.ndarray, cells: np.ndarray, belief, seed: int) -> 
     """One-step squared error E_i of every probed cell on a held-out flop at θ* (heading 2.0, change 0.3, 3 cables)."""
     data = simulate(theta, controller=FlopController(2.0, change=0.3, n_cables=3), duration=1.5, noise=1e-3,
                     seed=seed + 99)
-    with TrajectoryError(data, loss="squared", n_workers=0) as E:
+    with TrajectoryObjective(data, loss="squared", n_workers=0) as E:
         return E.evaluate_batch(belief.theta[cells], parallel=False).errors
 
 

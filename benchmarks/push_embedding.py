@@ -42,7 +42,7 @@ def _curves(space, ae, seeds: int, budget: int) -> dict[str, np.ndarray]:
 
     from belief import Grid, identify
     from embeddings import Identity
-    from physics.push import PushError, generate_push_data
+    from physics.push import PushObjective, generate_push_data
 
     identity = Identity(space)
     methods = {"BO, learned 1-D latent": (ae, Grid.for_decoder(ae, points_per_dim=1001), "bo"),
@@ -52,7 +52,7 @@ def _curves(space, ae, seeds: int, budget: int) -> dict[str, np.ndarray]:
     for seed in tqdm(range(seeds), desc="truths"):
         truth = space.sample(1, seed=100 + seed)[0]
         J, S = generate_push_data(truth, n=8, seed=seed)
-        objective = PushError(J, S, space=space)
+        objective = PushObjective(J, S, space=space)
         for name, (decoder, grid, method) in methods.items():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")

@@ -23,7 +23,7 @@ import numpy as np
 import xarray as xr
 from tqdm import tqdm
 
-from physics import FlopController, ModelOptions, ParameterSpace, TrajectoryError, load_trajectory, simulate
+from physics import FlopController, ModelOptions, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
 from testbed.datasets import cached_dataset
 
 TIMES = (0.2, 0.3, 0.5, 1.0)
@@ -32,9 +32,9 @@ TIMES = (0.2, 0.3, 0.5, 1.0)
 def floor_row(ds: xr.Dataset, theta: np.ndarray) -> tuple[float, ...]:
     """(one-step RMS [mm], drift at each of TIMES [mm], resting height of the lowest three nodes
     [mm]) of DART at ``theta`` on one trajectory."""
-    one_step = TrajectoryError(ds, loss="squared", n_workers=0)
+    one_step = TrajectoryObjective(ds, loss="squared", n_workers=0)
     rms = np.sqrt(one_step(theta) / one_step.n_observations) * 1e3
-    rollout = TrajectoryError(ds, horizon="rollout", n_workers=0).predictions(theta)[0].values
+    rollout = TrajectoryObjective(ds, horizon="rollout", n_workers=0).predictions(theta)[0].values
     distance = np.linalg.norm(rollout - ds["nodes"].values, axis=2).mean(axis=1)
     t = ds["time"].values - ds["time"].values[0]
     rest = float(np.sort(ds["nodes"].values[0, :, 2])[:3].mean()) * 1e3

@@ -21,7 +21,7 @@ identification; the effect fit of criticism uses only the fit trajectories. With
 there is nothing to hold out: criticism alternates its time windows between fit and held-out,
 and the before/after error is in-sample (the report says so).
 
-The error is E = Σ ||x_i - x̂_i||² over ``horizon``-sample open-loop windows (physics.TrajectoryError,
+The error is E = Σ ||x_i - x̂_i||² over ``horizon``-sample open-loop windows (physics.TrajectoryObjective,
 ``loss="squared"``; default 25 samples, 0.25 s at 100 Hz): over a window an effect's deviation
 builds up, while over one sample sensor noise dominates.
 """
@@ -47,10 +47,10 @@ from criticism.residuals import residual_dataset, residual_summary
 from criticism.search import Criticism, CriticismConfig, criticize
 from embeddings import Identity
 from physics.effects import Effect, catalog, effect_from_config
-from physics.error import TrajectoryError
 from physics.objective import Objective
 from physics.parameters import ParameterSpace
 from physics.tensegrity import ModelOptions
+from physics.trajectory_objective import TrajectoryObjective
 
 __all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "split_masks", "retuned_at_bounds"]
 
@@ -215,7 +215,7 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
     journals = Path(journal_dir) if journal_dir is not None else None
     if journals is not None:
         journals.mkdir(parents=True, exist_ok=True)
-    full = TrajectoryError(data, horizon=config.horizon, loss="squared", windows=config.windows, options=options,
+    full = TrajectoryObjective(data, horizon=config.horizon, loss="squared", windows=config.windows, options=options,
                            n_workers=n_workers)
     try:
         fit, held = split_masks(full.segments, held_idx)

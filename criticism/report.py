@@ -24,7 +24,7 @@ from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
 from criticism.diagnose import Diagnosis, Pass
 from criticism.residuals import residual_dataset
 from physics.effects import Effect, effect_from_config
-from physics.error import TrajectoryError
+from physics.trajectory_objective import TrajectoryObjective
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -96,9 +96,9 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
                         "at_bounds": [a.as_dict() for a in p.at_bounds]} for p in d.passes]}
 
 
-def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequence[Effect]) -> TrajectoryError:
+def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequence[Effect]) -> TrajectoryObjective:
     """The diagnosis's error (its horizon and windows, serial) on ``trajectories`` with ``effects``."""
-    return TrajectoryError(list(trajectories), horizon=d.settings["horizon"], loss="squared",
+    return TrajectoryObjective(list(trajectories), horizon=d.settings["horizon"], loss="squared",
                            windows=d.settings["windows"], effects=effects, n_workers=0)
 
 

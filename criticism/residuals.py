@@ -1,7 +1,7 @@
 """Where the model misses: residuals r_i = x_i - x̂_i by node, axis and time, labelled by phase.
 
 For the trajectories of an objective with ``predictions(θ)``
-(:class:`physics.effect_objective.EffectObjective`, e.g. physics.TrajectoryError) the
+(:class:`physics.effect_objective.EffectObjective`, e.g. physics.TrajectoryObjective) the
 residual of sample i is the observed node positions minus the predicted ones (12 x 3) [m].
 Each sample gets one phase, from the data alone (no θ):
 

@@ -1,7 +1,7 @@
 """Catalog search: which physical effect the identified model lacks, judged on held-out data against a floor.
 
 Given an objective with segments and effects (:class:`physics.effect_objective.EffectObjective`,
-e.g. physics.TrajectoryError with ``loss="squared"``), the identified θ̂, and a split of its
+e.g. physics.TrajectoryObjective with ``loss="squared"``), the identified θ̂, and a split of its
 segments into *fit* segments F and *held-out* segments H:
 
 1. the base errors E_F(θ̃), E_H(θ̃) of the current model at the re-tuned θ̃ (below);
@@ -367,7 +367,7 @@ def criticize(objective: EffectObjective, theta: np.ndarray, *, fit: np.ndarray 
         raise CriticismError(f"fit and held must be disjoint, non-empty boolean masks over the {S} segments "
                              f"{list(objective.segments)}.")
     if objective.loss != "squared":
-        raise CriticismError("criticism needs a sum-of-squares objective (TrajectoryError(..., loss='squared')): "
+        raise CriticismError("criticism needs a sum-of-squares objective (TrajectoryObjective(..., loss='squared')): "
                              "its evidence is a Gaussian likelihood ratio.")
     present = {e.name for e in objective.effects}
     effects = [e for e in effects if e.name not in present]

@@ -27,7 +27,7 @@ import numpy as np
 from belief import Grid, IdentificationResult, credible_mask, identify
 from belief.plots import plot_error_trace, plot_marginals, plot_posterior_2d
 from embeddings import Identity
-from physics.push import PushError, generate_push_data, push_space
+from physics.push import PushObjective, generate_push_data, push_space
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # 2. The objective E(θ) = sum_k (S(θ; J_k) - S_obs_k)^2. Knowing the noise makes
     #    exp(-E / (2 sigma^2)) the exact likelihood, which the 'likelihood' posterior uses.
-    objective = PushError(impulses, observed, space=space, noise_std=0.05)
+    objective = PushObjective(impulses, observed, space=space, noise_std=0.05)
 
     # 3. Where to search: the identity decoder (the latent box is the unit square of (m, mu))
     #    and a regular grid of cells over it. P will be a distribution over these cells.
@@ -99,13 +99,13 @@ def main(argv: list[str] | None = None) -> int:
 def t6(out: str, *, quick: bool) -> None:
     """Part 2: the SUPERball. Same three objects (objective, decoder, grid), 15 parameters."""
     from embeddings import REMBO
-    from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+    from physics import FlopController, ParameterSpace, TrajectoryObjective, simulate
 
     space = ParameterSpace.t6()                                # 15 parameters, nominal ± 10 %
     theta_star = space.sample(1, seed=42)[0]
     data = simulate(theta_star, controller=FlopController(heading=0.0), duration=0.5 if quick else 2.0)
     # one-step-ahead error over the trajectory, sum of squared node errors (the likelihood mode's model)
-    with TrajectoryError(data, loss="squared", n_workers=0) as objective:
+    with TrajectoryObjective(data, loss="squared", n_workers=0) as objective:
         decoder = REMBO(space, dim=3 if quick else 5, seed=0)    # A ~ N(0, 1) of 15 x d
         grid = Grid.for_decoder(decoder, points_per_dim=5 if quick else 9)
         result = identify(objective, decoder, grid, budget=8 if quick else 60, seed=0, progress=not quick)

@@ -23,7 +23,7 @@ import numpy as np
 
 from belief import SobolCandidates, identify
 from embeddings import Identity
-from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+from physics import FlopController, ParameterSpace, TrajectoryObjective, simulate
 from planners import PointBelief, SimulatedRobot, plan_to_goal, probe
 from planners.plots import plot_plan, plot_probe
 
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     space = ParameterSpace.t6()
     truth = space.sample(1, seed=1001)[0]
     data = simulate(truth, controller=FlopController(0.0), duration=1.5, noise=1e-3, seed=0)
-    with TrajectoryError(data, loss="squared", n_workers=0) as E:
+    with TrajectoryObjective(data, loss="squared", n_workers=0) as E:
         decoder = Identity(space)
         cells = SobolCandidates.for_decoder(decoder, n=256 if quick else 1024, seed=0)
         belief = identify(E, decoder, cells, budget=6 if quick else 20, seed=0, progress=False).belief

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from physics import FlopController, ParameterSpace, TrajectoryError, load_trajectory, save_trajectory, simulate
+from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, save_trajectory, simulate
 from physics.plotting import plot_trajectory
 
 
@@ -34,7 +34,7 @@ def main(quick: bool = False, out: str = "out/tutorial") -> dict:
     print(f"wrote {path} and {png}")
 
     # 5. The trajectory error E(θ): ~0 at the parameters that made the data, larger elsewhere.
-    E = TrajectoryError(data)
+    E = TrajectoryObjective(data)
     e_true = E(space.nominal)
     e_off = E(space.replace(pretension=0.95 * 150.0))
     print(f"E(θ_true) = {e_true:.4f} m, E(pretension -5 %) = {e_off:.4f} m")

@@ -123,7 +123,7 @@ def _simulate_one(payload: tuple[ParameterSpace, T6DataConfig],
     message (a string) when a simulation fails."""
     from physics.controllers import FlopController
     from physics.errors import PhysicsError
-    from physics.simulate import simulate
+    from physics.simulation import simulate
 
     space, config = payload
     _, theta, heading, probe = item

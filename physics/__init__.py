@@ -4,21 +4,18 @@ pool and the 1-D push toy.
 
 Knows nothing of GPs or embeddings (the arrows point planners -> belief -> embeddings -> physics).
 
-Public names are re-exported lazily (PEP 562): ``from physics import TrajectoryError`` imports
-:mod:`physics.error` on first use, so ``import physics.parameters`` (and thereby ``belief`` and
+Public names are re-exported lazily (PEP 562): ``from physics import TrajectoryObjective`` imports
+:mod:`physics.trajectory_objective` on first use, so ``import physics.parameters`` (and thereby ``belief`` and
 ``embeddings``) does not load dartpy or compile the numba kernels.
 """
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from physics.actuators import MotorGains
     from physics.controllers import Controller, FlopController, FlopPlan, HoldController, ReplayController
-    from physics.error import TrajectoryError
     from physics.errors import (
         ContractError,
         ControllerError,
@@ -41,8 +38,8 @@ if TYPE_CHECKING:
     from physics.parameters import T6_NOMINAL, Parameter, ParameterSpace
     from physics.pool import DaskPool
     from physics.predictor import ObservedStates, predict, reconstruct_actuators
-    from physics.push import PushError, generate_push_data, push_space, simulate_push
-    from physics.simulate import settled_model, simulate
+    from physics.push import PushObjective, generate_push_data, push_space, simulate_push
+    from physics.simulation import settled_model, simulate
     from physics.tensegrity import ModelOptions, RobotState, T6Model, rod_poses_from_nodes
     from physics.trajectory import (
         describe_trajectory,
@@ -51,6 +48,7 @@ if TYPE_CHECKING:
         save_trajectory,
         validate_trajectory,
     )
+    from physics.trajectory_objective import TrajectoryObjective
 
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "physics.errors": ("TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError",
@@ -63,12 +61,12 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "physics.controllers": ("Controller", "FlopController", "FlopPlan", "HoldController", "ReplayController"),
     "physics.trajectory": ("make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory",
                            "describe_trajectory"),
-    "physics.simulate": ("simulate", "settled_model"),
+    "physics.simulation": ("simulate", "settled_model"),
     "physics.predictor": ("ObservedStates", "predict", "reconstruct_actuators"),
     "physics.objective": ("STATUSES", "BatchResult", "Objective", "FunctionObjective", "as_objective"),
     "physics.pool": ("DaskPool",),
-    "physics.error": ("TrajectoryError",),
-    "physics.push": ("PushError", "generate_push_data", "push_space", "simulate_push"),
+    "physics.trajectory_objective": ("TrajectoryObjective",),
+    "physics.push": ("PushObjective", "generate_push_data", "push_space", "simulate_push"),
 }
 _ORIGIN = {name: module for module, names in _EXPORTS.items() for name in names}
 
@@ -87,8 +85,8 @@ __all__ = [
     "ObservedStates", "predict", "reconstruct_actuators",
     "STATUSES", "BatchResult", "Objective", "FunctionObjective", "as_objective",
     "DaskPool",
-    "TrajectoryError",
-    "PushError", "generate_push_data", "push_space", "simulate_push",
+    "TrajectoryObjective",
+    "PushObjective", "generate_push_data", "push_space", "simulate_push",
 ]
 
 
@@ -104,17 +102,3 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """The package's module type: importing the submodule ``physics.simulate`` must not replace the
-    public function ``physics.simulate`` (the import system sets a package attribute per loaded
-    submodule; with eager imports the function was bound afterwards and won)."""
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if isinstance(value, types.ModuleType) and _ORIGIN.get(name) is not None:
-            return                      # resolved to the public object by __getattr__ on first access
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package

@@ -47,7 +47,7 @@ def _run_simulate(args: argparse.Namespace) -> int:
     from physics.controllers import FlopController, HoldController
     from physics.effects import model_space
     from physics.plotting import plot_trajectory
-    from physics.simulate import simulate
+    from physics.simulation import simulate
     from physics.trajectory import save_trajectory
 
     effects = _effects(_parse_assignments(args.effect))

@@ -19,7 +19,7 @@ observed trajectories of a model built from the T6 and effects e_1..e_m, so that
   [m] in the layout of each trajectory's ``nodes``, NaN where nothing was predicted;
 - ``close()``: release the worker pool the objective and its derived objectives share.
 
-:class:`physics.error.TrajectoryError` implements it. This module loads neither the simulator
+:class:`physics.trajectory_objective.TrajectoryObjective` implements it. This module loads neither the simulator
 nor the effects (numpy and typing only at run time), so code typed against it stays cheap to import.
 """
 from __future__ import annotations

@@ -95,7 +95,7 @@ def _nan_centre(nodes: np.ndarray) -> np.ndarray:
 def plot_observed_vs_predicted(ds: xr.Dataset, predictions: dict[str, xr.DataArray], path: str | os.PathLike[str], *,
                                title: str | None = None) -> Path:
     """Save a figure of the observed centre of mass (x, y, z) against predictions (label -> nodes
-    DataArray (time, node, axis), e.g. from ``TrajectoryError(ds, horizon="rollout").predictions(θ)``),
+    DataArray (time, node, axis), e.g. from ``TrajectoryObjective(ds, horizon="rollout").predictions(θ)``),
     with the per-sample node error ||x_i - x̂_i|| [m] below."""
     observed = ds["nodes"].transpose("time", "node", "axis").values
     t = ds["time"].values

@@ -10,7 +10,7 @@ Identification is ill-posed: every (m, mu) with the same ``m^2 mu`` gives the sa
 impulse, so data can only pin down the ridge ``m^2 mu = const``. That makes the toy the test bed
 of the belief package: a correct posterior must spread along the ridge.
 
-The objective :class:`PushError` implements the contract of :mod:`physics.objective`. Its error
+The objective :class:`PushObjective` implements the contract of :mod:`physics.objective`. Its error
 is the *sum of squared residuals*::
 
     E(theta) = sum_k (S_obs_k - S(theta; J_k))^2          [m^2]
@@ -33,7 +33,7 @@ from physics.objective import BatchResult, OnResult, check_windows, evaluate_row
 from physics.parameters import Parameter, ParameterSpace
 from physics.pool import map_serial
 
-__all__ = ["push_space", "simulate_push", "generate_push_data", "PushError"]
+__all__ = ["push_space", "simulate_push", "generate_push_data", "PushObjective"]
 
 
 def push_space(
@@ -107,7 +107,7 @@ def generate_push_data(
     return J, S + noise_std * rng.standard_normal(S.shape)
 
 
-class PushError:
+class PushObjective:
     """Objective E(theta) = sum_k (S_obs_k - S(theta; J_k))^2 [m^2] for the push toy.
 
     ``impulses`` and ``observed`` have shape ``K``. ``noise_std`` (m), when known, sets
@@ -130,7 +130,7 @@ class PushError:
         self.space = space or push_space()
         if self.space.names != ("m", "mu"):
             raise ParameterError(
-                f"PushError needs a space with parameters ('m', 'mu'), got {self.space.names}; use push_space()."
+                f"PushObjective needs a space with parameters ('m', 'mu'), got {self.space.names}; use push_space()."
             )
         self.impulses = _impulses(impulses)
         obs = np.asarray(observed, dtype=float)
@@ -175,7 +175,7 @@ class PushError:
         """S_obs - S(theta) (K,) [m]; raises PhysicsError above ``fail_above``."""
         th = self.space.as_array(theta)
         if th.ndim != 1:
-            raise ParameterError(f"PushError takes one theta of shape (2,), got {th.shape}; use evaluate_batch.")
+            raise ParameterError(f"PushObjective takes one theta of shape (2,), got {th.shape}; use evaluate_batch.")
         if self.fail_above is not None and th[0] > self.fail_above:
             raise PhysicsError(f"push toy: mass {th[0]!r} kg above fail_above={self.fail_above!r} "
                                "(simulated divergence).")

@@ -33,7 +33,7 @@ from planners.probe import (
 )
 from planners.robot import SimulatedRobot
 from planners.robust import (
-    OBJECTIVES,
+    RISK_MEASURES,
     FlopChoice,
     GoalRun,
     PlanStep,
@@ -51,7 +51,7 @@ __all__ = [
     "FlopAction", "candidate_actions", "face_headings",
     "PlannerError", "ActionError", "GoalError", "EmptyBeliefError", "RobotMismatchError", "LevelError",
     "RobotStart", "Outcome", "RolloutSet", "check_belief", "rollouts", "sample_rollouts", "SimulatedRobot",
-    "OBJECTIVES", "PointBelief", "cvar", "progress", "outcome_values", "flops_to_go", "score", "FlopChoice",
+    "RISK_MEASURES", "PointBelief", "cvar", "progress", "outcome_values", "flops_to_go", "score", "FlopChoice",
     "plan_flop", "PlanStep", "GoalRun", "plan_to_goal",
     "support", "information_gain", "update_weights", "probe_actions", "restricted_belief", "ProbeStep", "ProbeRun",
     "probe", "FlopEvidence",

@@ -15,7 +15,7 @@ import numpy as np
 
 from physics.controllers import FlopPlan
 from physics.parameters import ParameterSpace
-from physics.simulate import settled_model
+from physics.simulation import settled_model
 from planners.actions import FlopAction
 from planners.errors import PlannerError
 from planners.rollouts import Outcome, RobotStart, plan_cables, run_flop

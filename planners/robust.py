@@ -44,10 +44,10 @@ from planners.lookahead import flops_to_go, next_flops
 from planners.robot import SimulatedRobot
 from planners.rollouts import Outcome, RobotStart, RolloutSet, check_belief, pool_for, sample_rollouts
 
-__all__ = ["OBJECTIVES", "PointBelief", "check_level", "cvar", "progress", "outcome_values", "score", "check_goal",
+__all__ = ["RISK_MEASURES", "PointBelief", "check_level", "cvar", "progress", "outcome_values", "score", "check_goal",
            "FlopChoice", "plan_flop", "PlanStep", "GoalRun", "plan_to_goal"]
 
-OBJECTIVES = ("expected", "cvar", "success")
+RISK_MEASURES = ("expected", "cvar", "success")
 
 
 class PointBelief:
@@ -122,8 +122,8 @@ def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: f
     """(scores ``n_a``, progress ``n_a x K`` [m], success ``n_a x K`` bool) of a rollout set (module
     docstring); the scores are in metres of progress (``horizon`` 1) or in −flops to go (``horizon`` 2).
     ``values``: the outcome values if already computed (:func:`outcome_values`)."""
-    if objective not in OBJECTIVES:
-        raise PlannerError(f"objective must be one of {OBJECTIVES}, got {objective!r}.")
+    if objective not in RISK_MEASURES:
+        raise PlannerError(f"objective must be one of {RISK_MEASURES}, got {objective!r}.")
     alpha = check_level(level)
     prog = progress(rs.displacement, rs.ok, rs.start.centre, goal)
     value = outcome_values(rs, goal, horizon=horizon, radius=radius, prog=prog, nxt=nxt) if values is None else values

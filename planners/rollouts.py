@@ -33,7 +33,7 @@ from physics.errors import PhysicsError
 from physics.geometry import rod_poses_from_nodes
 from physics.parameters import ParameterSpace
 from physics.pool import DaskPool
-from physics.simulate import settled_model
+from physics.simulation import settled_model
 from physics.tensegrity import RobotState, T6Model
 from planners.actions import FlopAction
 from planners.errors import ActionError, EmptyBeliefError, PlannerError, RobotMismatchError
@@ -41,7 +41,7 @@ from planners.errors import ActionError, EmptyBeliefError, PlannerError, RobotMi
 __all__ = ["RobotStart", "Outcome", "RolloutSet", "check_belief", "place", "plan_cables", "plan_all",
            "run_flop", "rollouts", "sample_rollouts", "pool_for", "warm_up"]
 
-_SAMPLE_RATE = 100.0     # controller rate [Hz], as physics.simulate
+_SAMPLE_RATE = 100.0     # controller rate [Hz], as physics.simulation
 _LIFT = 5e-4             # gap left under the lowest cap when placing rods [m]
 
 

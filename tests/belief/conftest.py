@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from physics.parameters import Parameter, ParameterSpace
-from physics.push import PushError, generate_push_data, push_space
+from physics.push import PushObjective, generate_push_data, push_space
 
 
 def _unit_space(D: int) -> ParameterSpace:
@@ -65,6 +65,6 @@ def push_problem():
     def make(truth=(1.0, 0.4), *, noise_std: float = 0.05, seed: int = 0, **kw):
         truth = np.asarray(truth, dtype=float)
         J, S = generate_push_data(truth, n=8, noise_std=noise_std, seed=seed)
-        return PushError(J, S, space=push_space(), noise_std=noise_std, **kw), truth
+        return PushObjective(J, S, space=push_space(), noise_std=noise_std, **kw), truth
 
     return make

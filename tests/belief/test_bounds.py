@@ -18,7 +18,7 @@ from belief.errors import BeliefError
 from belief.result import IdentificationResult
 from belief.verdicts import pinned
 from embeddings import Identity
-from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+from physics import FlopController, ParameterSpace, TrajectoryObjective, simulate
 
 T6 = ParameterSpace.t6()
 
@@ -148,7 +148,7 @@ def _identify_rod(rod_length: float) -> IdentificationResult:
     grid = SobolCandidates.for_decoder(decoder, n=1024, seed=0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                    # 20 evaluations in 15-D: the budget warning
-        return identify(TrajectoryError(data, loss="squared", n_workers=0), decoder, grid, budget=20, seed=0,
+        return identify(TrajectoryObjective(data, loss="squared", n_workers=0), decoder, grid, budget=20, seed=0,
                         progress=False)
 
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from belief import Grid, credible_mask, identify
 from embeddings import Identity
-from physics.push import PushError, generate_push_data, push_space
+from physics.push import PushObjective, generate_push_data, push_space
 
 NOISE_STD = 0.05  # m, on displacements of ~0.1-10 m
 
@@ -44,7 +44,7 @@ def coverage(n_problems: int, *, budget: int = 100, points_per_dim: int = 31, le
         rng = np.random.default_rng(first_seed + k)
         truth = dec.decode(grid.points[rng.integers(grid.size)])  # θ* ~ the prior: uniform over the cells
         J, S = generate_push_data(truth, n=8, noise_std=NOISE_STD, seed=rng)
-        obj = PushError(J, S, space=space, noise_std=NOISE_STD)
+        obj = PushObjective(J, S, space=space, noise_std=NOISE_STD)
         res = identify(obj, dec, grid, budget=budget, seed=k, progress=False)
         mask = credible_mask(res.posterior.values.ravel(), level=level)
         cell = grid.nearest(dec.encode(truth))[0]

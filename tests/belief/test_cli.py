@@ -110,7 +110,7 @@ def test_identify_t6_trajectory_file(tmp_path) -> None:
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
     assert res.n_evaluations == 6 and res.marginals.sizes["parameter"] == 15
-    assert res.config["objective"]["kind"] == "T6 TrajectoryError"
+    assert res.config["objective"]["kind"] == "T6 TrajectoryObjective"
     assert (out / "posterior_marginals.png").exists() and (out / "observed_vs_predicted.png").exists()
 
 

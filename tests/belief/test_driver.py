@@ -12,13 +12,13 @@ from belief import Grid, ObjectiveError, identify
 from embeddings import Identity
 from physics.errors import ContractError, ControllerError, NoResidualsError, ParameterError
 from physics.objective import FunctionObjective, Objective, as_objective
-from physics.push import PushError
+from physics.push import PushObjective
 
 #: with n_init = 5 and q = 1: call 1 is in batch 0 (evaluate_batch), call 6 is batch 2 (one cell, evaluate_row)
 FAILING_CALLS = (1, 6)
 
 
-class _ControllerFailures(PushError):
+class _ControllerFailures(PushObjective):
     """The push objective whose evaluations number FAILING_CALLS raise ControllerError, a tensegrid
     error that is not a PhysicsError (a controller refusing its command, not a diverged simulation)."""
 
@@ -66,7 +66,7 @@ def test_a_controller_error_is_failed_in_a_batch_and_in_a_one_cell_batch(push_pr
 def test_rows_missing_from_on_result_are_an_error(push_problem) -> None:
     obj, _ = push_problem()
 
-    class Silent(PushError):
+    class Silent(PushObjective):
         def evaluate_batch(self, thetas, *, on_result=None):
             return super().evaluate_batch(thetas)                  # computes the rows, never reports them
 

@@ -23,7 +23,7 @@ from embeddings import REMBO, Identity
 from belief.grid import CandidateSet
 from physics.errors import ContractError, ParameterError, PhysicsError
 from physics.parameters import ParameterSpace
-from physics.push import PushError, push_space
+from physics.push import PushObjective, push_space
 
 HIST_VARS = ("z", "theta", "error", "status", "cell", "batch")
 
@@ -35,11 +35,11 @@ def _same_history(a: xr.Dataset, b: xr.Dataset) -> bool:
 
 @pytest.fixture(scope="module")
 def push_run():
-    from physics.push import PushError, generate_push_data
+    from physics.push import PushObjective, generate_push_data
 
     truth = np.array([1.0, 0.4])
     J, S = generate_push_data(truth, n=8, noise_std=0.05, seed=0)
-    obj = PushError(J, S, noise_std=0.05)
+    obj = PushObjective(J, S, noise_std=0.05)
     dec = Identity(obj.space)
     grid = Grid.for_decoder(dec, points_per_dim=41)
     res = identify(obj, dec, grid, budget=40, seed=0, progress=False)
@@ -121,7 +121,7 @@ def test_failed_evaluations_are_recorded_not_fatal(push_problem) -> None:
     grid = Grid.for_decoder(dec, points_per_dim=21)
     res = identify(obj, dec, grid, budget=20, seed=0, progress=False)
     h = res.history
-    failed = h["status"].values == "diverged"          # PushError's fail_above raises PhysicsError
+    failed = h["status"].values == "diverged"          # PushObjective's fail_above raises PhysicsError
     assert failed.any() and (~failed).any() and set(h["status"].values) == {"ok", "diverged"}
     assert np.all(np.isnan(h["error"].values[failed])) and np.all(h["theta"].values[failed, 0] > 1.2)
     assert all(msg for msg in h["message"].values[failed])  # every failure says why
@@ -279,7 +279,7 @@ def test_streamed_rows_keep_statuses_and_parts(push_problem) -> None:
     contract), with their segment errors; a row reported "ok" with a non-finite error becomes "failed"."""
     obj, _ = push_problem()
 
-    class Streaming(PushError):
+    class Streaming(PushObjective):
         def evaluate_batch(self, thetas, *, on_result=None):
             for k in reversed(range(len(thetas))):
                 if k == 0:

@@ -6,7 +6,7 @@ import pytest
 
 from belief import BudgetWarning, SobolCandidates, identify
 from embeddings import Identity
-from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+from physics import FlopController, ParameterSpace, TrajectoryObjective, simulate
 
 
 @pytest.mark.slow
@@ -14,7 +14,7 @@ def test_t6_identification_beats_nominal_and_concentrates_near_the_truth():
     space = ParameterSpace.t6()
     theta_star = space.sample(1, seed=42)[0]
     data = simulate(theta_star, controller=FlopController(heading=0.0), duration=2.0)
-    E = TrajectoryError(data, loss="squared", n_workers=0)
+    E = TrajectoryObjective(data, loss="squared", n_workers=0)
     decoder = Identity(space)
     candidates = SobolCandidates.for_decoder(decoder, n=2048, seed=0)
     with pytest.warns(BudgetWarning, match="a GP needs about 10 per dimension"):

@@ -15,7 +15,7 @@ import pytest
 from belief import Grid, Journal, JournalError, Record, identify
 from embeddings import Identity
 from physics.objective import BatchResult, evaluate_row
-from physics.push import PushError
+from physics.push import PushObjective
 
 HIST_VARS = ("z", "theta", "error", "status", "cell", "batch")
 
@@ -101,7 +101,7 @@ def test_resume_after_an_interruption_mid_batch(tmp_path, push_problem) -> None:
     assert _same_history(res.history, ref.history)
 
 
-class _StreamingBatch(PushError):
+class _StreamingBatch(PushObjective):
     """The push objective with a batch that finishes its rows in reverse order, streams them through
     ``on_result`` and can be 'killed' (KeyboardInterrupt) after ``kill_after`` rows of one batch."""
 
@@ -163,12 +163,12 @@ _SCRIPT = textwrap.dedent(
     """
     import sys, time
     import numpy as np
-    from physics.push import PushError, generate_push_data
+    from physics.push import PushObjective, generate_push_data
     from embeddings import Identity
     from belief import Grid, identify
 
     J, S = generate_push_data([1.0, 0.4], n=8, noise_std=0.05, seed=0)
-    obj = PushError(J, S, noise_std=0.05)
+    obj = PushObjective(J, S, noise_std=0.05)
 
     def slow(theta):
         time.sleep(float(sys.argv[2]))
@@ -182,7 +182,7 @@ _SCRIPT = textwrap.dedent(
 
 
 def test_sigkill_midway_then_resume_gives_the_uninterrupted_history(tmp_path) -> None:
-    from physics.push import PushError, generate_push_data
+    from physics.push import PushObjective, generate_push_data
 
     script = tmp_path / "run.py"
     script.write_text(_SCRIPT)
@@ -213,7 +213,7 @@ def test_sigkill_midway_then_resume_gives_the_uninterrupted_history(tmp_path) ->
     assert proc.returncode == -signal.SIGKILL and 8 <= n < 16
 
     J, S = generate_push_data([1.0, 0.4], n=8, noise_std=0.05, seed=0)
-    obj = PushError(J, S, noise_std=0.05)
+    obj = PushObjective(J, S, noise_std=0.05)
     dec = Identity(obj.space)
     grid = Grid.for_decoder(dec, points_per_dim=21)
     kw = dict(budget=16, seed=7, space=obj.space, noise_var=0.0025, progress=False)

@@ -7,7 +7,7 @@ from scipy.optimize import lsq_linear
 
 from belief.errors import BeliefError
 from belief.least_squares import LeastSquaresConfig, StepConfig, gauss_newton_step, refine
-from physics import ParameterSpace, PushError, generate_push_data, push_space
+from physics import ParameterSpace, PushObjective, generate_push_data, push_space
 from physics.parameters import Parameter
 
 
@@ -62,7 +62,7 @@ def test_refine_moves_only_the_given_parameters_and_fits_only_the_masked_segment
 def test_refine_never_rises_and_steps_away_from_divergence():
     space = push_space()
     J, S = generate_push_data([1.2, 0.5], n=8, noise_std=0.001, seed=1)
-    objective = PushError(J, S, space=space, fail_above=1.3, windows=2)
+    objective = PushObjective(J, S, space=space, fail_above=1.3, windows=2)
     # with mu held at 0.2 the best mass is 1.2 sqrt(0.5 / 0.2) = 1.9 kg, but above 1.3 kg the toy "diverges"
     result = refine(objective, np.array([1.0, 0.2]), [0], [True, True])
     assert result.error < result.start_error and 1.2 < result.theta[0] <= 1.3
@@ -72,7 +72,7 @@ def test_refine_never_rises_and_steps_away_from_divergence():
 
 def test_refine_refuses_a_failing_start_and_bad_settings():
     J, S = generate_push_data([1.0, 0.5], n=6)
-    objective = PushError(J, S, fail_above=1.3)
+    objective = PushObjective(J, S, fail_above=1.3)
     with pytest.raises(BeliefError, match="diverged"):
         refine(objective, np.array([1.4, 0.5]), [0, 1], [True, True])
     with pytest.raises(BeliefError, match="mask"):

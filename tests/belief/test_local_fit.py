@@ -10,7 +10,7 @@ from belief import identify
 from belief.grid import Grid
 from belief.verdicts import VerdictConfig
 from embeddings.base import Decoder
-from physics.push import PushError, generate_push_data
+from physics.push import PushObjective, generate_push_data
 
 
 class MassLine(Decoder):
@@ -43,7 +43,7 @@ def line_runs():
     """The push toy (S = J²/(2 m² μ), truth m = 1, μ = 0.4) searched along m with μ held at 0.82."""
     truth = np.array([1.0, 0.4])
     J, S = generate_push_data(truth, n=8, noise_std=0.05, seed=0)
-    obj = PushError(J, S, noise_std=0.05)
+    obj = PushObjective(J, S, noise_std=0.05)
     dec = MassLine(obj.space, mu_unit=0.8)
     grid = Grid.for_decoder(dec, points_per_dim=81)
     runs = {flag: identify(obj, dec, grid, budget=12, seed=0, progress=False, verdict_config=VerdictConfig(refit=flag))

@@ -9,20 +9,20 @@ import pytest
 from belief import BeliefError, BudgetError, Grid, identify
 from belief.presets import DEFAULT_PRESET, PRESETS, Preset, PresetWarning, resolve, run_preset
 from embeddings import REMBO, Identity
-from physics.push import PushError, generate_push_data, push_space
+from physics.push import PushObjective, generate_push_data, push_space
 
 
 @pytest.fixture
-def push() -> PushError:
+def push() -> PushObjective:
     space = push_space()
     impulses, observed = generate_push_data(np.array([1.0, 0.4]), n=8, noise_std=0.05, seed=0)
-    return PushError(impulses, observed, space=space, noise_std=0.05)
+    return PushObjective(impulses, observed, space=space, noise_std=0.05)
 
 
 class Counting:
     """The objective contract of ``inner``, counting residual evaluations (the finishing step's)."""
 
-    def __init__(self, inner: PushError) -> None:
+    def __init__(self, inner: PushObjective) -> None:
         self.inner, self.residual_rows = inner, 0
 
     def residuals_batch(self, thetas: np.ndarray):
@@ -129,12 +129,12 @@ def test_a_plain_function_runs_a_preset_and_keeps_its_best_without_residuals(pus
 @pytest.mark.slow
 def test_the_default_preset_on_t6_data_uses_the_shipped_latent_decoder() -> None:
     from embeddings.pretrained import pretrained_decoder
-    from physics import FlopController, ParameterSpace, TrajectoryError, simulate
+    from physics import FlopController, ParameterSpace, TrajectoryObjective, simulate
 
     space = ParameterSpace.t6()
     assert pretrained_decoder(space) is not None, "embeddings/data/t6-ae-cf-5.json is missing: run `make pretrained`"
     data = simulate(space.replace(rod_length=1.70), controller=FlopController(heading=0.0), duration=0.6)
-    with TrajectoryError([data], loss="squared", n_workers=0) as objective, warnings.catch_warnings():
+    with TrajectoryObjective([data], loss="squared", n_workers=0) as objective, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = identify(objective, budget=15 + 2 + 19, seed=0, progress=False)
         assert result.config["stages"][0] == "latent (DynamicsAutoencoder, 15 evaluations)"

@@ -29,7 +29,7 @@ from belief.identify import identify
 from belief.posterior import PosteriorConfig
 from embeddings import Identity
 from physics import load_trajectory
-from physics.error import TrajectoryError
+from physics.trajectory_objective import TrajectoryObjective
 from testbed.datasets import make_dataset
 
 SEED, DURATION_S, BUDGET, CANDIDATES = 3, 1.5, 30, 4096
@@ -44,7 +44,7 @@ def flops(tmp_path_factory) -> tuple[list[Path], dict[str, float]]:
 
 
 def _identify(files: list[Path], journal: Path, floor: str):
-    objective = TrajectoryError([load_trajectory(f) for f in files], horizon=1, loss="squared", windows=3,
+    objective = TrajectoryObjective([load_trajectory(f) for f in files], horizon=1, loss="squared", windows=3,
                                 n_workers=0)
     decoder = Identity(objective.space)
     grid = SobolCandidates.for_decoder(decoder, n=CANDIDATES, seed=0)

@@ -16,7 +16,7 @@ import pytest
 from physics.errors import NoResidualsError, PhysicsError, TensegridError
 from physics.objective import STATUSES, BatchResult, FunctionObjective, Objective, evaluate_row
 from physics.parameters import ParameterSpace
-from physics.push import PushError, generate_push_data, push_space
+from physics.push import PushObjective, generate_push_data, push_space
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,7 @@ class Case:
 
 def _push() -> Case:
     J, S = generate_push_data([1.0, 0.4], n=6, noise_std=0.05, seed=0)
-    obj = PushError(J, S, noise_std=0.05, fail_above=1.4, windows=3)
+    obj = PushObjective(J, S, noise_std=0.05, fail_above=1.4, windows=3)
     return Case(obj, np.array([[1.0, 0.4], [0.7, 0.9], [1.3, 0.2]]), np.array([1.45, 0.4]), squared=True)
 
 
@@ -45,10 +45,10 @@ def _flop():
 
 
 def _trajectory(loss: str, horizon: "int | str") -> Case:
-    from physics.error import TrajectoryError
+    from physics.trajectory_objective import TrajectoryObjective
 
     space = ParameterSpace.t6()
-    obj = TrajectoryError(_flop(), loss=loss, horizon=horizon, windows=2, n_workers=0)
+    obj = TrajectoryObjective(_flop(), loss=loss, horizon=horizon, windows=2, n_workers=0)
     thetas = np.vstack([space.nominal, space.replace(damping=190.0), space.sample(1, seed=3)])
     return Case(obj, thetas, space.replace(stiffnessActive=1e7), squared=loss == "squared")
 
@@ -67,9 +67,9 @@ def _function(workers: int) -> Case:
 
 
 IMPLEMENTATIONS = [
-    pytest.param(_push, id="PushError"),
-    pytest.param(lambda: _trajectory("squared", 1), id="TrajectoryError-squared"),
-    pytest.param(lambda: _trajectory("norm", "rollout"), id="TrajectoryError-rollout"),
+    pytest.param(_push, id="PushObjective"),
+    pytest.param(lambda: _trajectory("squared", 1), id="TrajectoryObjective-squared"),
+    pytest.param(lambda: _trajectory("norm", "rollout"), id="TrajectoryObjective-rollout"),
     pytest.param(lambda: _function(1), id="FunctionObjective"),
     pytest.param(lambda: _function(3), id="FunctionObjective-threads"),
 ]

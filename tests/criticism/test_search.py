@@ -11,7 +11,7 @@ from criticism import CriticismError
 from criticism.diagnose import split_masks
 from criticism.residuals import phases, residual_dataset, residual_summary
 from criticism.search import Candidate, Criticism, CriticismConfig, _contest, _order, _rescore, _verdict, criticize
-from physics import FlopController, HoldController, TrajectoryError, simulate
+from physics import FlopController, HoldController, TrajectoryObjective, simulate
 from physics.effects import (
     ActuatorDelay, EncoderOffset, EndCapRadius, GroundSlope, NonlinearStiffness, SensorBias, model_space,
 )
@@ -45,7 +45,7 @@ def test_phases_follow_commands_and_contacts():
 
 def test_residuals_skip_nan_samples_and_say_how_many():
     data, theta = _flops(headings=(0.0,), nan=5, duration=1.0)
-    objective = TrajectoryError(data, horizon=1, loss="squared", n_workers=0)
+    objective = TrajectoryObjective(data, horizon=1, loss="squared", n_workers=0)
     res = residual_dataset(objective, theta)
     assert np.isfinite(res["residual"].values).all()
     summary = residual_summary(res)
@@ -56,7 +56,7 @@ def test_residuals_skip_nan_samples_and_say_how_many():
 def test_criticism_finds_a_sensor_bias_and_its_size():
     effects = [SensorBias()]
     data, theta = _flops(effects, {"sensor_bias_z": 0.02})
-    objective = TrajectoryError(data, horizon=25, loss="squared", n_workers=0)
+    objective = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
     fit, held = split_masks(objective.segments, [1])
     crit = criticize(objective, theta[:15], fit=fit, held=held, effects=SUBSET, config=QUICK, progress=False)
     assert crit.verdict == "found" and crit.found.name == "sensor_bias", crit.table()
@@ -68,7 +68,7 @@ def test_criticism_finds_a_sensor_bias_and_its_size():
 
 def test_criticism_claims_nothing_on_data_the_model_explains():
     data, theta = _flops()
-    objective = TrajectoryError(data, horizon=25, loss="squared", n_workers=0)
+    objective = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
     fit, held = split_masks(objective.segments, [1])
     crit = criticize(objective, theta, fit=fit, held=held, effects=SUBSET, config=QUICK, progress=False)
     assert crit.verdict == "unexplained" and crit.found is None, crit.table()
@@ -76,11 +76,11 @@ def test_criticism_claims_nothing_on_data_the_model_explains():
 
 def test_criticism_refuses_bad_masks_and_norm_loss():
     data, theta = _flops(headings=(0.0,), duration=0.5)
-    objective = TrajectoryError(data, horizon=5, loss="squared", n_workers=0)
+    objective = TrajectoryObjective(data, horizon=5, loss="squared", n_workers=0)
     S = len(objective.segments)
     with pytest.raises(CriticismError, match="disjoint"):
         criticize(objective, theta, fit=np.ones(S, bool), held=np.ones(S, bool), effects=SUBSET)
-    norm = TrajectoryError(data, horizon=5, loss="norm", n_workers=0)
+    norm = TrajectoryObjective(data, horizon=5, loss="norm", n_workers=0)
     fit, held = split_masks(norm.segments, [])
     with pytest.raises(CriticismError, match="sum-of-squares"):
         criticize(norm, theta, fit=fit, held=held, effects=SUBSET)
@@ -88,7 +88,7 @@ def test_criticism_refuses_bad_masks_and_norm_loss():
 
 def test_an_effect_outside_the_catalog_is_not_attributed_with_confidence():
     data, theta = _flops([EncoderOffset()], {"encoder_offset": 0.05})
-    objective = TrajectoryError(data, horizon=25, loss="squared", n_workers=0)
+    objective = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
     fit, held = split_masks(objective.segments, [1])
     crit = criticize(objective, theta[:15], fit=fit, held=held, effects=SUBSET, config=QUICK, progress=False)
     assert crit.verdict == "unexplained", crit.table()
@@ -97,7 +97,7 @@ def test_an_effect_outside_the_catalog_is_not_attributed_with_confidence():
 def test_one_trajectory_alternates_its_windows_between_fit_and_held_out():
     effects = [ActuatorDelay()]
     data, theta = _flops(effects, {"actuator_delay": 0.08}, headings=(0.0,), duration=1.5)
-    objective = TrajectoryError(data, horizon=25, loss="squared", windows=4, n_workers=0)
+    objective = TrajectoryObjective(data, horizon=25, loss="squared", windows=4, n_workers=0)
     fit, held = split_masks(objective.segments, [])
     assert fit.tolist() == [True, False, True, False]
     crit = criticize(objective, theta[:15], fit=fit, held=held, effects=[SensorBias(), ActuatorDelay()],
@@ -109,7 +109,7 @@ def test_one_trajectory_alternates_its_windows_between_fit_and_held_out():
 def test_a_mix_of_two_effects_finds_the_larger_first():
     effects = [ActuatorDelay(), GroundSlope()]
     data, theta = _flops(effects, {"actuator_delay": 0.08, "slope_x": 0.08}, duration=1.5)
-    objective = TrajectoryError(data, horizon=25, loss="squared", n_workers=0)
+    objective = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
     fit, held = split_masks(objective.segments, [1])
     crit = criticize(objective, theta[:15], fit=fit, held=held, effects=effects, config=QUICK, progress=False)
     # alone, each leaves the other's residual; together they explain the held-out flop

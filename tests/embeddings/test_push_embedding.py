@@ -10,7 +10,7 @@ from scipy.stats import spearmanr
 
 from belief import Grid, identify
 from embeddings import DynamicsAutoencoder, DynamicsNetwork, Identity, TrainingConfig, load_decoder, push_transitions
-from physics.push import PushError, generate_push_data, push_space
+from physics.push import PushObjective, generate_push_data, push_space
 
 SPACE = push_space()
 
@@ -61,7 +61,7 @@ def test_bo_in_the_learned_latent_beats_bo_in_m_mu(trained) -> None:
     for seed in range(4):
         truth = SPACE.sample(1, seed=100 + seed)[0]
         J, S = generate_push_data(truth, n=8, seed=seed)
-        objective = PushError(J, S, space=SPACE)
+        objective = PushObjective(J, S, space=SPACE)
         for name, decoder, grid in (("latent", ae, Grid.for_decoder(ae, points_per_dim=1001)),
                                     ("m, mu", identity, Grid.for_decoder(identity, points_per_dim=31))):
             with warnings.catch_warnings():

@@ -10,7 +10,7 @@ from belief import Grid, identify
 from belief.errors import JournalError
 from embeddings import VAE, EmbeddingError, TrainingConfig, decoder_from_config, load_decoder
 from physics.parameters import ParameterSpace
-from physics.push import PushError, generate_push_data, push_space
+from physics.push import PushObjective, generate_push_data, push_space
 
 SPACE = ParameterSpace.t6()
 FAST = TrainingConfig(epochs=3, batch_size=256, seed=0)
@@ -72,7 +72,7 @@ def test_a_journal_refuses_a_different_model(tmp_path) -> None:
     """The problem fingerprint carries the weights: resuming with another trained decoder is refused."""
     space = push_space()
     J, S = generate_push_data(np.array([1.0, 0.4]), n=6, noise_std=0.01, seed=0)
-    objective = PushError(J, S, space=space, noise_std=0.01)
+    objective = PushObjective(J, S, space=space, noise_std=0.01)
     first = VAE(space, dim=1, hidden=16).fit(500, training=TrainingConfig(epochs=2, seed=0))
     second = VAE(space, dim=1, hidden=16).fit(500, training=TrainingConfig(epochs=2, seed=1))
     journal = tmp_path / "run.sqlite"

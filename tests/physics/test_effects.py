@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from physics import FlopController, ModelOptions, ParameterError, T6Model, TrajectoryError, simulate
+from physics import FlopController, ModelOptions, ParameterError, T6Model, TrajectoryObjective, simulate
 from physics.effects import (
     EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, EndCapRadius, GroundSlope, NonlinearStiffness,
     PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
@@ -130,8 +130,8 @@ def test_the_predictor_knows_an_effect_through_the_model(effect, values):
     theta = _theta([effect], **values)
     data = simulate(theta, controller=FlopController(0.0), duration=1.2, effects=[effect])
     plain_data = simulate(controller=FlopController(0.0), duration=1.2)
-    floor = TrajectoryError(plain_data, n_workers=0)(None)
-    wrong = TrajectoryError(data, n_workers=0)
+    floor = TrajectoryObjective(plain_data, n_workers=0)(None)
+    wrong = TrajectoryObjective(data, n_workers=0)
     right = wrong.with_effects([effect])(theta)
     assert right < 3.0 * floor
     assert wrong(None) > 5.0 * right
@@ -144,5 +144,5 @@ def test_true_rest_lengths_in_the_data_give_the_same_error_as_encoder_readings()
     true = simulate(theta, length_reference="true", **kwargs)
     assert true.attrs["length_reference"] == "true"
     assert not np.allclose(true.controls.values, encoder.controls.values)
-    e_encoder = TrajectoryError(encoder, n_workers=0)(theta)
-    assert TrajectoryError(true, n_workers=0)(theta) == pytest.approx(e_encoder, rel=1e-9)
+    e_encoder = TrajectoryObjective(encoder, n_workers=0)(theta)
+    assert TrajectoryObjective(true, n_workers=0)(theta) == pytest.approx(e_encoder, rel=1e-9)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from physics import (
-    STATUSES, ModelOptions, ParameterError, PhysicsError, TrajectoryError, TrajectoryFormatError,
+    STATUSES, ModelOptions, ParameterError, PhysicsError, TrajectoryObjective, TrajectoryFormatError,
 )
 
 # motor_friction acts on the motion (test_model) but its one-step signal (+3e-8 at +5 %) is far
@@ -15,7 +15,7 @@ ONE_STEP_BLIND = {"motor_friction"}
 
 
 def test_one_step_error_is_near_zero_at_the_truth_and_grows_along_each_parameter(space, flop_data):
-    E = TrajectoryError(flop_data)
+    E = TrajectoryObjective(flop_data)
     e0 = E(space.nominal)
     n_compared = int(np.isfinite(E.per_sample(space.nominal)[0]).sum())
     assert e0 / n_compared < 1e-4           # < 0.1 mm per sample over 36 coordinates
@@ -28,7 +28,7 @@ def test_one_step_error_is_near_zero_at_the_truth_and_grows_along_each_parameter
 
 @pytest.mark.slow
 def test_rollout_error_grows_along_every_parameter(space, flop_data):
-    E = TrajectoryError(flop_data, horizon="rollout")
+    E = TrajectoryObjective(flop_data, horizon="rollout")
     e0 = E(space.nominal)
     assert e0 < 0.01
     for name in space.names:
@@ -39,7 +39,7 @@ def test_rollout_error_grows_along_every_parameter(space, flop_data):
 def test_estimated_velocities_leave_a_small_floor(space, flop_data):
     """Without recorded velocities the backward-difference estimate costs accuracy, but the truth
     still wins against 5 % errors in the strongest parameters."""
-    E = TrajectoryError(flop_data.drop_vars("velocities"))
+    E = TrajectoryObjective(flop_data.drop_vars("velocities"))
     e0 = E(space.nominal)
     for name in ("density", "stiffnessActive", "pretension"):
         assert E(space.replace(**{name: space[name].nominal * 1.05})) > e0
@@ -47,14 +47,14 @@ def test_estimated_velocities_leave_a_small_floor(space, flop_data):
 
 def test_horizons_and_actuator_sources_agree_at_the_truth(space, flop_data):
     for kwargs in (dict(horizon=10), dict(actuators="measured"), dict(actuators="auto")):
-        assert TrajectoryError(flop_data, **kwargs)(space.nominal) < 0.05
+        assert TrajectoryObjective(flop_data, **kwargs)(space.nominal) < 0.05
 
 
 def test_missing_samples_are_skipped(space, flop_data):
     holey = flop_data.copy(deep=True)
     holey["nodes"][100:103] = np.nan
     holey["controls"][200:202] = np.nan
-    E = TrajectoryError(holey.drop_vars("velocities"))
+    E = TrajectoryObjective(holey.drop_vars("velocities"))
     per = E.per_sample(space.nominal)[0]
     assert np.isnan(per[100:105]).all()           # the holes, and predictions from states that need them
     assert np.isfinite(per[105])                  # from x_104, velocity by first-order difference
@@ -65,22 +65,22 @@ def test_missing_samples_are_skipped(space, flop_data):
 
 def test_squared_loss_is_the_sum_of_squared_residuals(space, flop_data):
     theta = space.replace(damping=190.0)
-    per = TrajectoryError(flop_data).per_sample(theta)[0]
-    squared = TrajectoryError(flop_data, loss="squared")
+    per = TrajectoryObjective(flop_data).per_sample(theta)[0]
+    squared = TrajectoryObjective(flop_data, loss="squared")
     assert np.isclose(squared(theta), np.nansum(per**2))
     assert squared.n_observations == 36 * int(np.isfinite(per).sum())
     with pytest.raises(ParameterError, match="loss must be"):
-        TrajectoryError(flop_data, loss="l1")
+        TrajectoryObjective(flop_data, loss="l1")
 
 
 def test_many_trajectories_add_up(space, flop_data):
-    one = TrajectoryError(flop_data)(space.nominal)
-    two = TrajectoryError([flop_data, flop_data])(space.nominal)
+    one = TrajectoryObjective(flop_data)(space.nominal)
+    two = TrajectoryObjective([flop_data, flop_data])(space.nominal)
     assert np.isclose(two, 2 * one)
 
 
 def test_divergence_raises_alone_and_is_recorded_in_a_batch(space, flop_data):
-    E = TrajectoryError(flop_data.isel(time=slice(0, 50)))
+    E = TrajectoryObjective(flop_data.isel(time=slice(0, 50)))
     theta = space.replace(stiffnessActive=1e7)  # explicit integration is unstable: ω dt = 2.6 > 2
     with pytest.raises(PhysicsError, match="diverged"):
         E(theta)
@@ -97,13 +97,13 @@ def test_divergence_raises_alone_and_is_recorded_in_a_batch(space, flop_data):
 
 
 def test_calling_on_a_batch_points_to_evaluate_batch(space, flop_data):
-    E = TrajectoryError(flop_data.isel(time=slice(0, 50)))
+    E = TrajectoryObjective(flop_data.isel(time=slice(0, 50)))
     with pytest.raises(ParameterError, match="evaluate_batch"):
         E(np.stack([space.nominal, space.nominal]))
 
 
 def test_residuals_batch_matches_residuals_and_marks_divergence(space, flop_data):
-    E = TrajectoryError(flop_data.isel(time=slice(0, 50)), horizon=5, loss="squared")
+    E = TrajectoryObjective(flop_data.isel(time=slice(0, 50)), horizon=5, loss="squared")
     diverging = space.replace(stiffnessActive=1e7)
     rows = E.residuals_batch(np.stack([space.nominal, diverging, space.replace(damping=150.0)]), parallel=False)
     assert rows[1] is None
@@ -117,7 +117,7 @@ def test_residuals_batch_matches_residuals_and_marks_divergence(space, flop_data
 def test_batch_on_a_local_dask_cluster_matches_serial(space, flop_data):
     thetas = space.sample(4, seed=3)
     streamed = {}
-    with TrajectoryError(flop_data.isel(time=slice(0, 120)), n_workers=2) as E:
+    with TrajectoryObjective(flop_data.isel(time=slice(0, 120)), n_workers=2) as E:
         parallel = E.evaluate_batch(thetas, on_result=lambda k, e, st, sec, msg, parts: streamed.setdefault(k, (e, st)))
         serial = E.evaluate_batch(thetas, parallel=False)
         np.testing.assert_array_equal(parallel.errors, serial.errors)
@@ -136,32 +136,32 @@ def test_batch_on_an_existing_scheduler(space, flop_data):
     thetas = space.sample(2, seed=4)
     data = flop_data.isel(time=slice(0, 60))
     with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
-        with TrajectoryError(data, address=cluster.scheduler_address) as E:
+        with TrajectoryObjective(data, address=cluster.scheduler_address) as E:
             remote = E.evaluate_batch(thetas)
             assert E._pool.cluster is None     # it used the given scheduler, started none
-    np.testing.assert_array_equal(remote.errors, TrajectoryError(data).evaluate_batch(thetas, parallel=False).errors)
+    np.testing.assert_array_equal(remote.errors, TrajectoryObjective(data).evaluate_batch(thetas, parallel=False).errors)
 
 
 def test_validation(space, flop_data):
     with pytest.raises(ParameterError, match="horizon"):
-        TrajectoryError(flop_data, horizon=0)
+        TrajectoryObjective(flop_data, horizon=0)
     with pytest.raises(ParameterError, match="actuators"):
-        TrajectoryError(flop_data, actuators="guess")
+        TrajectoryObjective(flop_data, actuators="guess")
     with pytest.raises(TrajectoryFormatError, match="at least one trajectory"):
-        TrajectoryError([])
+        TrajectoryObjective([])
     with pytest.raises(TrajectoryFormatError, match="whole number of physics steps"):
-        TrajectoryError(flop_data, options=ModelOptions(dt=0.003))
+        TrajectoryObjective(flop_data, options=ModelOptions(dt=0.003))
     with pytest.raises(TrajectoryFormatError, match="needs a 'rest_length'"):
-        TrajectoryError(flop_data.drop_vars("rest_length"), actuators="measured")(space.nominal)
+        TrajectoryObjective(flop_data.drop_vars("rest_length"), actuators="measured")(space.nominal)
     with pytest.raises(ParameterError, match="shape"):
-        TrajectoryError(flop_data)(np.ones(3))
+        TrajectoryObjective(flop_data)(np.ones(3))
     for bad in (0, -1, 1.5, True, "3"):
         with pytest.raises(ParameterError, match=r"windows must be an integer >= 1.*windows=1"):
-            TrajectoryError(flop_data, windows=bad)
+            TrajectoryObjective(flop_data, windows=bad)
     short = flop_data.isel(time=slice(0, 20)).copy(deep=True)
     short["nodes"][:-1] = np.nan
     with pytest.raises(TrajectoryFormatError, match="no sample can be predicted and compared"):
-        TrajectoryError(short)
+        TrajectoryObjective(short)
 
 
 # ---------------------------------------------------------------------------- segments and parts
@@ -171,17 +171,17 @@ def short_data(flop_data):
 
 
 def test_segments_split_the_compared_samples_into_nearly_equal_contiguous_groups(space, short_data):
-    E = TrajectoryError([short_data, short_data.isel(time=slice(0, 31))], windows=4)
+    E = TrajectoryObjective([short_data, short_data.isel(time=slice(0, 31))], windows=4)
     assert E.segments == ("t0/w0", "t0/w1", "t0/w2", "t0/w3", "t1/w0", "t1/w1", "t1/w2", "t1/w3")
     assert E.fingerprint()["segments"] == list(E.segments) and E.fingerprint()["windows"] == 4
-    assert E.fingerprint() != TrajectoryError([short_data, short_data.isel(time=slice(0, 31))]).fingerprint()
+    assert E.fingerprint() != TrajectoryObjective([short_data, short_data.isel(time=slice(0, 31))]).fingerprint()
     res = E.residuals(space.nominal)
     assert len(res) == 8 and all(r.shape[1] == 36 for r in res)
     sizes = [int(np.isfinite(r).all(axis=1).sum()) for r in res]
     assert sizes == [15, 15, 15, 15, 8, 8, 7, 7]        # 60 and 30 compared samples
     assert sum(r.shape[0] for r in res[:4]) == 60       # contiguous, covering samples 1..60 once
     # fewer compared samples than windows: fewer segments
-    tiny = TrajectoryError(short_data.isel(time=slice(0, 4)), windows=5)
+    tiny = TrajectoryObjective(short_data.isel(time=slice(0, 4)), windows=5)
     assert tiny.segments == ("t0/w0", "t0/w1", "t0/w2")
     assert len(tiny.evaluate_parts(space.nominal)) == 3
 
@@ -189,7 +189,7 @@ def test_segments_split_the_compared_samples_into_nearly_equal_contiguous_groups
 @pytest.mark.parametrize("loss, power", [("norm", 1), ("squared", 2)])
 def test_parts_sum_to_the_error_and_residuals_reproduce_it(space, short_data, loss, power):
     theta = space.replace(damping=190.0)
-    E = TrajectoryError(short_data, loss=loss, horizon=7)
+    E = TrajectoryObjective(short_data, loss=loss, horizon=7)
     parts = E.evaluate_parts(theta)
     per = E.per_sample(theta)[0]
     assert parts.shape == (3,) and (parts > 0).all()
@@ -208,7 +208,7 @@ def test_parts_sum_to_the_error_and_residuals_reproduce_it(space, short_data, lo
 def test_residuals_have_nan_rows_where_nothing_was_compared(space, short_data):
     holey = short_data.copy(deep=True)
     holey["nodes"][20:22] = np.nan
-    E = TrajectoryError(holey, loss="squared", windows=2)
+    E = TrajectoryObjective(holey, loss="squared", windows=2)
     res = E.residuals(space.nominal)
     rows = np.concatenate(res)
     assert rows.shape == (60, 36)                        # samples 1..60 in time order
@@ -219,7 +219,7 @@ def test_residuals_have_nan_rows_where_nothing_was_compared(space, short_data):
 
 
 def test_one_prediction_pass_per_evaluation(space, short_data, monkeypatch):
-    import physics.error as module
+    import physics.trajectory_objective as module
     calls = []
     original = module.predict
 
@@ -228,6 +228,6 @@ def test_one_prediction_pass_per_evaluation(space, short_data, monkeypatch):
         return original(*args, **kwargs)
 
     monkeypatch.setattr(module, "predict", counting)
-    E = TrajectoryError(short_data, horizon=10, n_workers=0)
+    E = TrajectoryObjective(short_data, horizon=10, n_workers=0)
     result = E.evaluate_batch(space.nominal[None], on_result=lambda *row: None)
     assert result.status == ("ok",) and len(calls) == 6   # 6 windows of 10 samples, each run once

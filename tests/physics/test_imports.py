@@ -4,7 +4,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-HEAVY = ("dartpy", "physics.tensegrity", "physics.cables", "physics.actuators", "physics.predictor", "physics.error")
+HEAVY = ("dartpy", "physics.tensegrity", "physics.cables", "physics.actuators", "physics.predictor", "physics.trajectory_objective")
 
 
 def _run(code: str) -> str:
@@ -21,10 +21,10 @@ def test_belief_and_embeddings_do_not_import_the_simulator():
 
 def test_public_names_resolve_on_first_use():
     out = _run("import sys, physics; assert 'dartpy' not in sys.modules; "
-               "from physics import TrajectoryError, BatchResult, simulate; import physics.simulate; "
-               "print(TrajectoryError.__module__, BatchResult.__module__, physics.simulate is simulate, "
+               "from physics import TrajectoryObjective, BatchResult, simulate; import physics.simulation; "
+               "print(TrajectoryObjective.__module__, BatchResult.__module__, physics.simulate is simulate, "
                "callable(simulate), 'dartpy' in sys.modules, set(physics.__all__) <= set(dir(physics)))")
-    assert out == "physics.error physics.objective True True True True"
+    assert out == "physics.trajectory_objective physics.objective True True True True"
 
 
 def test_every_public_name_exists():

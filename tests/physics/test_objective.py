@@ -6,7 +6,7 @@ import pytest
 
 from physics.errors import ParameterError, PhysicsError, TrajectoryFormatError
 from physics.objective import STATUSES, BatchResult, Objective, evaluate_row
-from physics.push import PushError, generate_push_data
+from physics.push import PushObjective, generate_push_data
 
 NAN = float("nan")
 
@@ -87,11 +87,11 @@ def test_evaluate_row_lets_bugs_through():
 
 def test_push_error_satisfies_the_protocol():
     J, S = generate_push_data([1.0, 0.4], n=4, seed=0)
-    assert isinstance(PushError(J, S), Objective)
+    assert isinstance(PushObjective(J, S), Objective)
     assert not isinstance(_Fake(np.zeros(2)), Objective)
 
 
 def test_batch_result_is_still_importable_from_physics_error():
     from physics import BatchResult as exported
-    from physics.error import BatchResult as old_home
+    from physics.trajectory_objective import BatchResult as old_home
     assert exported is old_home is BatchResult

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from physics.errors import ParameterError, PhysicsError
-from physics.push import PushError, generate_push_data, push_space, simulate_push
+from physics.push import PushObjective, generate_push_data, push_space, simulate_push
 
 
 def test_paper_example_values() -> None:
@@ -50,20 +50,20 @@ def test_generate_data_seeded_and_noisy() -> None:
 
 def test_objective_is_zero_at_truth_and_on_the_ridge() -> None:
     J, S = generate_push_data([1.0, 0.4], n=8, seed=0)
-    obj = PushError(J, S)
+    obj = PushObjective(J, S)
     assert obj([1.0, 0.4]) == pytest.approx(0.0, abs=1e-20)
     assert obj([0.8, 0.4 / 0.64]) == pytest.approx(0.0, abs=1e-20)
     assert obj([1.2, 0.4]) > 0.01
     res = obj.evaluate_batch(np.array([[1.0, 0.4], [1.2, 0.4]]))
     assert res.status == ("ok", "ok") and res.errors[1] > 0.01
     assert obj.n_observations == 8 and obj.noise_var is None
-    assert PushError(J, S, noise_std=0.1).noise_var == pytest.approx(0.01)
-    assert obj.fingerprint() == PushError(J, S).fingerprint() != PushError(J, S + 1e-9).fingerprint()
+    assert PushObjective(J, S, noise_std=0.1).noise_var == pytest.approx(0.01)
+    assert obj.fingerprint() == PushObjective(J, S).fingerprint() != PushObjective(J, S + 1e-9).fingerprint()
 
 
 def test_fail_above_raises_physics_error_and_batch_marks_failed() -> None:
     J, S = generate_push_data([1.0, 0.4], n=4, seed=0)
-    obj = PushError(J, S, fail_above=1.3)
+    obj = PushObjective(J, S, fail_above=1.3)
     with pytest.raises(PhysicsError, match="fail_above"):
         obj([1.4, 0.4])
     seen = []
@@ -77,7 +77,7 @@ def test_fail_above_raises_physics_error_and_batch_marks_failed() -> None:
 
 def test_parts_residuals_and_segments() -> None:
     J, S = generate_push_data([1.0, 0.4], n=7, noise_std=0.05, seed=1)
-    obj = PushError(J, S)
+    obj = PushObjective(J, S)
     theta = np.array([1.1, 0.5])
     assert obj.segments == ("w0", "w1") and obj.fingerprint()["segments"] == ["w0", "w1"]
     parts = obj.evaluate_parts(theta)
@@ -90,14 +90,14 @@ def test_parts_residuals_and_segments() -> None:
     batch = obj.evaluate_batch(np.array([theta, [1.0, 0.4]]))
     np.testing.assert_array_equal(batch.parts[0], parts)
     assert batch.errors.tolist() == batch.parts.sum(axis=1).tolist()
-    assert PushError(J, S, windows=3).segments == ("w0", "w1", "w2")
-    assert PushError(J[:2], S[:2], windows=5).segments == ("w0", "w1")   # fewer pushes than windows
-    assert PushError(J, S, windows=1).fingerprint() != obj.fingerprint()
+    assert PushObjective(J, S, windows=3).segments == ("w0", "w1", "w2")
+    assert PushObjective(J[:2], S[:2], windows=5).segments == ("w0", "w1")   # fewer pushes than windows
+    assert PushObjective(J, S, windows=1).fingerprint() != obj.fingerprint()
 
 
 def test_batch_records_out_of_box_rows_as_failed() -> None:
     J, S = generate_push_data([1.0, 0.4], n=4, seed=0)
-    res = PushError(J, S).evaluate_batch(np.array([[2.0, 0.4]]))
+    res = PushObjective(J, S).evaluate_batch(np.array([[2.0, 0.4]]))
     assert res.status == ("failed",) and "ParameterError" in res.messages[0]
 
 
@@ -110,15 +110,15 @@ def test_batch_records_out_of_box_rows_as_failed() -> None:
         (lambda: simulate_push([0.0, 0.4], [1.0]), "non-physical"),
         (lambda: generate_push_data([1.0, 0.4], n=0), "positive number of pushes"),
         (lambda: generate_push_data([1.0, 0.4], noise_std=-1.0), "noise_std"),
-        (lambda: PushError([1.0, 2.0], [1.0]), "observed must have the shape"),
-        (lambda: PushError([1.0], [np.nan]), "NaN"),
-        (lambda: PushError([1.0], [1.0], noise_std=0.0), "noise_std"),
-        (lambda: PushError([1.0], [1.0])([2.0, 0.4]), "outside its bounds"),
-        (lambda: PushError([1.0], [1.0])(np.ones((2, 2))), "evaluate_batch"),
+        (lambda: PushObjective([1.0, 2.0], [1.0]), "observed must have the shape"),
+        (lambda: PushObjective([1.0], [np.nan]), "NaN"),
+        (lambda: PushObjective([1.0], [1.0], noise_std=0.0), "noise_std"),
+        (lambda: PushObjective([1.0], [1.0])([2.0, 0.4]), "outside its bounds"),
+        (lambda: PushObjective([1.0], [1.0])(np.ones((2, 2))), "evaluate_batch"),
         (lambda: push_space(mass=(1.0, 0.5)), "lower bound must be below"),
-        (lambda: PushError([1.0], [1.0], windows=0), r"windows must be an integer >= 1.*windows=1"),
-        (lambda: PushError([1.0], [1.0], windows=2.0), "windows must be an integer"),
-        (lambda: PushError([1.0], [1.0]).evaluate_batch(np.ones((2, 3))), r"thetas must have shape \(n, 2\)"),
+        (lambda: PushObjective([1.0], [1.0], windows=0), r"windows must be an integer >= 1.*windows=1"),
+        (lambda: PushObjective([1.0], [1.0], windows=2.0), "windows must be an integer"),
+        (lambda: PushObjective([1.0], [1.0]).evaluate_batch(np.ones((2, 3))), r"thetas must have shape \(n, 2\)"),
     ],
 )
 def test_validation(call, match: str) -> None:

@@ -19,12 +19,12 @@ Segments: the samples of trajectory k that are compared (those the prediction wi
 fixed by the data and ``horizon``, not by θ) are split, in time order, into ``windows``
 contiguous groups whose sizes differ by at most one sample (fewer groups when the trajectory has
 fewer compared samples than ``windows``). Group j is segment ``f"t{k}/w{j}"``; its part is the
-sum above restricted to its samples, so E(θ) = Σ_s parts_s(θ) (:meth:`TrajectoryError.evaluate_parts`),
-and :meth:`TrajectoryError.residuals` returns the residual rows x_i - x̂_i (36 coordinates,
+sum above restricted to its samples, so E(θ) = Σ_s parts_s(θ) (:meth:`TrajectoryObjective.evaluate_parts`),
+and :meth:`TrajectoryObjective.residuals` returns the residual rows x_i - x̂_i (36 coordinates,
 node-major: node 0 x, y, z, node 1 x, ...) of each segment.
 
 Samples with missing observations are skipped. A single evaluation raises :class:`PhysicsError`
-if the simulation diverges; :meth:`TrajectoryError.evaluate_batch` records it with status
+if the simulation diverges; :meth:`TrajectoryObjective.evaluate_batch` records it with status
 "diverged" and goes on (:mod:`physics.objective` has the contract). Batches run in parallel on
 dask.distributed through :class:`physics.pool.DaskPool`: a local cluster (one single-threaded
 process per worker, started on first use and reused) or an existing scheduler's address.
@@ -47,7 +47,7 @@ from physics.predictor import ObservedStates, actuator_states, predict
 from physics.tensegrity import ModelOptions, T6Model
 from physics.trajectory import validate_trajectory
 
-__all__ = ["TrajectoryError", "BatchResult"]
+__all__ = ["TrajectoryObjective", "BatchResult"]
 
 
 def _warm_up() -> None:
@@ -55,7 +55,7 @@ def _warm_up() -> None:
     T6Model().step(None, n=2)
 
 
-class TrajectoryError:
+class TrajectoryObjective:
     """E(θ) on observed trajectories; callable on one θ (D,), :meth:`evaluate_batch` for a batch (n x D).
 
     trajectories: one Dataset or a sequence (docs/data-format.md); horizon: 1, k or "rollout";
@@ -77,7 +77,7 @@ class TrajectoryError:
             trajectories = [trajectories]
         trajectories = list(trajectories)
         if not trajectories:
-            raise TrajectoryFormatError("TrajectoryError needs at least one trajectory, got an empty sequence.")
+            raise TrajectoryFormatError("TrajectoryObjective needs at least one trajectory, got an empty sequence.")
         self.trajectories = [validate_trajectory(ds) for ds in trajectories]
         self.effects = tuple(effects)
         self.space = space or model_space(self.effects)
@@ -133,7 +133,7 @@ class TrajectoryError:
         for obs in self._observed:
             for arr in (obs.times, obs.nodes, obs.controls, obs.velocities):
                 digest.update(np.ascontiguousarray(arr).tobytes())
-        return {"kind": "T6 TrajectoryError", "data_sha256": digest.hexdigest(), "horizon": str(self.horizon),
+        return {"kind": "T6 TrajectoryObjective", "data_sha256": digest.hexdigest(), "horizon": str(self.horizon),
                 "actuators": self.actuators, "loss": self.loss, "options": repr(self.options),
                 "parameters": list(self.space.names), "windows": self.windows, "segments": list(self.segments),
                 "effects": [e.config() for e in self.effects]}
@@ -276,7 +276,7 @@ class TrajectoryError:
             return self._pool.map_rows(residual_row, self, list(thetas))
         return map_serial(residual_row, self, list(thetas))
 
-    def with_effects(self, effects: Sequence[Effect]) -> TrajectoryError:
+    def with_effects(self, effects: Sequence[Effect]) -> TrajectoryObjective:
         """The same data and settings with the model's effects replaced by ``effects`` (θ then lives
         in ``model_space(effects)``); shares this objective's worker pool."""
         other = copy.copy(self)
@@ -284,7 +284,7 @@ class TrajectoryError:
         other.space = model_space(other.effects)
         return other
 
-    def select(self, trajectories: Sequence[int]) -> TrajectoryError:
+    def select(self, trajectories: Sequence[int]) -> TrajectoryObjective:
         """The same settings on a subset of the trajectories (indices, in the given order); shares
         this objective's worker pool. Segments are renumbered t0.. in the new order."""
         index = [int(k) for k in trajectories]
@@ -300,7 +300,7 @@ class TrajectoryError:
         """Shut down the local dask cluster, if one was started."""
         self._pool.close()
 
-    def __enter__(self) -> TrajectoryError:
+    def __enter__(self) -> TrajectoryObjective:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -108,7 +108,7 @@ def simulate(theta: np.ndarray | Mapping[str, float] | None = None, *, controlle
     # a noisy recording carries positions only (motion capture)
     recorded = velocities if record_velocities and noise <= 0 else None
     attrs = {
-        "source": "tensegrid.physics.simulate",
+        "source": "tensegrid.physics.simulation",
         "physics_dt": dt,
         "settle_s": float(settle),
         "noise_m": float(noise),
