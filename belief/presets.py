@@ -147,17 +147,17 @@ def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, bu
         assert decoder is not None
         on_stage("latent")
         return search(objective, decoder, Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim),
-                              budget=budget, seed=seed, journal=journal, **options)
+                      budget=budget, seed=seed, journal=journal, **options)
     full = Identity(space)
     if preset.latent == 0:
         on_stage("search")
         return search(objective, full, _full_space(space.dim, full, preset, seed), budget=budget, seed=seed,
-                              journal=journal, method=preset.search, **options)
+                      journal=journal, method=preset.search, **options)
     assert decoder is not None
     on_stage("latent")
     quiet = {k: v for k, v in options.items() if k not in ("posterior_config", "verdict_config")}
     first = search(objective, decoder, Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim),
-                           budget=preset.latent, seed=seed, journal=_latent_journal(journal), posterior=None, **quiet)
+                   budget=preset.latent, seed=seed, journal=_latent_journal(journal), posterior=None, **quiet)
     on_stage("search")
     return continue_in(first, objective, full, budget=budget, seed=seed, n=preset.candidates, journal=journal,
                        method=preset.search, **options)
