@@ -111,9 +111,7 @@ def _validate_problem(objective: Objective | ObjectiveFunction, decoder: Decoder
         raise BeliefError(f"decoder must be an embeddings.Decoder (.space, .dim, .bounds, .decode(z)), got "
                           f"{type(decoder).__name__}.")
     dspace = decoder.space
-    if tuple(dspace.names) != tuple(space.names) or not (
-        np.allclose(dspace.lower, space.lower) and np.allclose(dspace.upper, space.upper)
-    ):
+    if not dspace.same_box(space):
         raise BeliefError(
             f"decoder's parameter space {list(dspace.names)} (bounds) differs from the objective's "
             f"{list(space.names)}; build the decoder on objective.space."

@@ -15,8 +15,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from embeddings.base import Decoder
 from embeddings.registry import load_decoder
 from physics.parameters import ParameterSpace
@@ -32,13 +30,9 @@ def pretrained_path(name: str = PRETRAINED_T6) -> Path:
     return Path(__file__).resolve().parent / "data" / name
 
 
-def _same_space(a: ParameterSpace, b: ParameterSpace) -> bool:
-    return tuple(a.names) == tuple(b.names) and bool(np.allclose(a.lower, b.lower) and np.allclose(a.upper, b.upper))
-
-
 def pretrained_decoder(space: ParameterSpace) -> Decoder | None:
     """The shipped latent decoder for ``space``, or None when none was trained on exactly this box."""
     path = pretrained_path()
-    if not path.exists() or not _same_space(space, ParameterSpace.t6()):
+    if not path.exists() or not space.same_box(ParameterSpace.t6()):
         return None
     return load_decoder(path, space)

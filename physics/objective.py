@@ -364,10 +364,6 @@ class FunctionObjective:
         return f"FunctionObjective({self.name}, D={self.space.dim}, workers={self.workers})"
 
 
-def _same_space(a: ParameterSpace, b: ParameterSpace) -> bool:
-    return tuple(a.names) == tuple(b.names) and bool(np.allclose(a.lower, b.lower) and np.allclose(a.upper, b.upper))
-
-
 def as_objective(objective: Objective | ObjectiveFunction, space: ParameterSpace | None = None, *,
                  workers: int = 1) -> Objective:
     """``objective`` itself when it implements :class:`Objective`, else a plain function wrapped in
@@ -379,7 +375,7 @@ def as_objective(objective: Objective | ObjectiveFunction, space: ParameterSpace
     a plain function comes without a space, or ``space`` differs from the objective's own.
     """
     if isinstance(objective, Objective):
-        if space is not None and not _same_space(space, objective.space):
+        if space is not None and not space.same_box(objective.space):
             raise ParameterError(f"space {list(space.names)} (or its bounds) differs from the objective's own "
                                  f"{list(objective.space.names)}; leave space unset for an Objective.")
         return objective

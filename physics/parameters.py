@@ -293,6 +293,12 @@ class ParameterSpace:
             coords={"parameter": list(self.names), "unit": ("parameter", list(self.units))},
         )
 
+    def same_box(self, other: ParameterSpace) -> bool:
+        """True when ``other`` has the same parameter names in the same order and the same bounds (to
+        floating-point tolerance): θ vectors, decoders and journals of one are valid for the other."""
+        return tuple(self.names) == tuple(other.names) and bool(
+            np.allclose(self.lower, other.lower) and np.allclose(self.upper, other.upper))
+
     def replace(self, theta: np.ndarray | Mapping[str, float] | None = None, **values: float) -> np.ndarray:
         """θ with some parameters replaced by name (bounds not checked), e.g. ``replace(damping=0.0)``."""
         arr = self.as_array(theta, check_bounds=False).copy()

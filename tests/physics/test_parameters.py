@@ -90,3 +90,13 @@ def test_space_validation():
         ParameterSpace.t6(bounds={"mass": (1, 2)})
     with pytest.raises(ParameterError, match="unit cube"):
         ParameterSpace((p,)).from_unit([1.5])
+
+
+def test_same_box_compares_names_order_and_bounds() -> None:
+    from physics.parameters import ParameterSpace
+    from physics.push import push_space
+
+    t6 = ParameterSpace.t6()
+    assert t6.same_box(ParameterSpace.t6())
+    assert not t6.same_box(push_space())
+    assert not t6.same_box(ParameterSpace.t6(relative_width=0.2))
