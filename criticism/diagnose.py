@@ -12,9 +12,9 @@ One pass on trajectories split into *fit* and *held-out* ones:
    and after, per trajectory.
 
 Each pass also lists the parameters the re-tuning left at a bound of the box (belief.bounds):
-those it moved there from θ̂, and those the identification already found pinned there (verdict
-rule 6). A fit that ends on the box's edge would leave it if it could: model inadequacy, not
-estimates (:func:`retuned_at_bounds`).
+those it moved there from θ̂, and those the identification already found pinned there (the
+"at bound" verdict rule). A fit that ends on the box's edge would leave it if it could: model
+inadequacy, not estimates (:func:`retuned_at_bounds`).
 
 Passes repeat (``passes``) until criticism finds nothing. Held-out trajectories never enter an
 identification; the effect fit of criticism uses only the fit trajectories. With one trajectory
@@ -43,6 +43,7 @@ from belief.identify import identify
 from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.result import IdentificationResult
 from criticism.errors import CriticismError
+from criticism.mismatch import MismatchConfig, MismatchReport, absorb_mismatch, superseded
 from criticism.residuals import residual_dataset, residual_summary
 from criticism.search import Criticism, CriticismConfig, criticize
 from embeddings import Identity
@@ -60,7 +61,8 @@ class DiagnoseConfig:
     """passes: most effects added; budget: evaluations per identification; candidates: Sobol cells
     of each identification; horizon, windows: of the error (module docstring); seed: all randomness;
     bound_tolerance: a re-tuned value within this fraction of the box width of a bound is at it
-    (belief.bounds)."""
+    (belief.bounds); mismatch: run the mismatch stage (criticism.mismatch) before the first
+    identification, and identify and search on the model it augments (None: off)."""
 
     passes: int = 2
     budget: int = 40
@@ -70,6 +72,7 @@ class DiagnoseConfig:
     seed: int = 0
     criticism: CriticismConfig = field(default_factory=CriticismConfig)
     bound_tolerance: float = AT_BOUND_TOLERANCE
+    mismatch: MismatchConfig | None = None
 
     def __post_init__(self) -> None:
         if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
@@ -135,6 +138,7 @@ class Diagnosis:
     held_out: list[int]
     belief: Belief | None
     settings: dict[str, Any]
+    mismatch: MismatchReport | None = None
 
     @property
     def found(self) -> list[str]:
@@ -154,9 +158,9 @@ def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.nd
 def retuned_at_bounds(space: ParameterSpace, start: np.ndarray, retuned: np.ndarray, belief: Belief | None, *,
                       tolerance: float = AT_BOUND_TOLERANCE) -> tuple[AtBound, ...]:
     """The parameters at a bound of the re-tuned θ̃ (D,) that the re-tuning moved there from θ̂
-    (``start``, D,), or that the identification's ``belief`` already lists at that bound (verdict
-    rule 6). A value already on the edge at θ̂ that the data do not narrow is left out: BO's best
-    point can sit there by chance (belief.verdicts rule 6)."""
+    (``start``, D,), or that the identification's ``belief`` already lists at that bound (the "at
+    bound" verdict rule). A value already on the edge at θ̂ that the data do not narrow is left out:
+    BO's best point can sit there by chance (belief.verdicts)."""
     known = {(a.name, a.side) for a in (belief.at_bounds if belief is not None else ())}
     moved = {a.name for a in at_bounds(space, retuned, tolerance=tolerance, start=start)}
     found = at_bounds(space, retuned, tolerance=tolerance, source="re-tuning")
@@ -181,8 +185,8 @@ def _identify(objective: Objective, config: DiagnoseConfig, seed: int, warm: np.
     decoder = Identity(space)
     include = None if warm is None else decoder.encode(np.clip(warm, space.lower, space.upper))[None]
     grid = SobolCandidates(decoder.bounds, n=config.candidates, seed=seed, include=include)
-    proposer = None if warm is None else BOProposer(seed, initial=WarmStart([0], SobolDesign(seed)))
-    return identify(objective, decoder, grid, budget=config.budget, seed=seed, method="bo", proposer=proposer,
+    proposer = "bo" if warm is None else BOProposer(seed, initial=WarmStart([0], SobolDesign(seed)))
+    return identify(objective, decoder, grid, budget=config.budget, seed=seed, proposer=proposer,
                     journal=journal, progress=progress)
 
 
@@ -220,8 +224,13 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
     try:
         fit, held = split_masks(full.segments, held_idx)
         fit_objective = full.select(fit_idx)
-        added: tuple[Effect, ...] = ()
-        ident = _identify(fit_objective, config, config.seed, None, _journal(journals, 0), progress)
+        stage = (absorb_mismatch(full, fit, held_idx, config=config.mismatch, progress=progress)
+                 if config.mismatch is not None else None)
+        added: tuple[Effect, ...] = stage.effects if stage is not None else ()
+        tries = superseded(tries, added)
+        warm0 = stage.theta if stage is not None and added else None
+        ident = _identify(fit_objective.with_effects(added), config, config.seed, warm0, _journal(journals, 0),
+                          progress)
         first_belief, passes = ident.belief, []
         for k in range(config.passes):
             model = full.with_effects(added)
@@ -249,7 +258,7 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
                     "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
                     "bound_tolerance": config.bound_tolerance,
                     "fit_trajectories": fit_idx, "segments": list(full.segments)}
-        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings)
+        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage)
     finally:
         full.close()
 

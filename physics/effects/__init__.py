@@ -1,5 +1,8 @@
 """physics.effects: physical effects as composable parts of the T6 model (base: the contract;
-world, forces, components, sensing: the catalog; catalog: all of them by name)."""
+world, forces, components, sensing: the catalog; actuation, anchors: components of the mismatch
+stage; catalog: all of them by name)."""
+from physics.effects.actuation import TensionLimitedActuation
+from physics.effects.anchors import CableAnchors
 from physics.effects.base import Effect, ForceTerm, ModelSetup, model_space, split_theta
 from physics.effects.catalog import EFFECT_TYPES, catalog, effect_from_config
 from physics.effects.components import (
@@ -15,5 +18,5 @@ from physics.effects.world import EndCapRadius, GroundSlope, PointMass
 
 __all__ = ["Effect", "ForceTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
            "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness",
-           "RateLimitedActuation",
+           "RateLimitedActuation", "TensionLimitedActuation", "CableAnchors",
            "AirDrag", "GroundViscosity", "SensorBias", "EndCapRadius", "GroundSlope", "PointMass"]

@@ -1,6 +1,8 @@
 """The catalog of effects criticism tries, and rebuilding an effect from its configuration."""
 from __future__ import annotations
 
+from physics.effects.actuation import TensionLimitedActuation
+from physics.effects.anchors import CableAnchors
 from physics.effects.base import Effect
 from physics.effects.components import (
     ActuatorDelay,
@@ -19,8 +21,10 @@ __all__ = ["EFFECT_TYPES", "catalog", "effect_from_config"]
 _CATALOG = (GroundSlope, AirDrag, GroundViscosity, CableHysteresis, NonlinearStiffness, ActuatorDelay,
             RateLimitedActuation, SensorBias, EndCapRadius, PointMass)
 
-#: Every effect class, by name (the catalog's, then EncoderOffset, which criticism does not try by default).
-EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in _CATALOG + (EncoderOffset,)}
+#: Every effect class, by name: the catalog's, then those criticism does not try by default (EncoderOffset;
+#: TensionLimitedActuation and CableAnchors, components of the mismatch stage, criticism.mismatch).
+EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in
+                                        _CATALOG + (EncoderOffset, TensionLimitedActuation, CableAnchors)}
 
 
 def catalog() -> tuple[Effect, ...]:

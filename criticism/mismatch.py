@@ -1,0 +1,356 @@
+"""The mismatch stage: model components that make the model reproduce another engine's (or robot's)
+data, found and added before the effect search.
+
+Criticism credits an effect with the held-out error it removes beyond the re-tuned model. When
+the model and the source of the data differ in a *component* (the actuator's law, the shape of
+the end caps), that difference leaves a residual far above the model's own floor, and no effect
+smaller than it can win. This stage runs first, on fit trajectories F and held-out ones H:
+
+1. **base**: the model at θ0 re-tuned on F (bounded least squares over its parameters,
+   :func:`criticism.search.polish`; ``rod_length`` is set to the length the data show and held,
+   :func:`measured_rod_length`): θ_b, fit error E_F(θ_b);
+2. **trials**: each component c of ``MismatchConfig.components`` (an Effect that replaces or
+   reshapes a part of the model) is added and (θ, η_c) is re-tuned jointly on F from (θ_b, η_c's
+   nominal); its gain is g_c = 1 − E_F(c) / E_F(model so far);
+3. **keep** the component with the largest gain if g_c ≥ ``min_gain``, and try the others again
+   on the model that has it (``rounds``). The decision uses F only, so the held-out figures
+   below stay out of sample;
+4. **report** on H, before (θ_b) and after (the augmented model at its re-tuned θ): the one-step
+   error Σ||x_{i+1} − f(x_i, u_i, θ)||² (horizon 1), the objective's windowed error, and the
+   open-loop drift at ``drift_time`` (mean node distance [m] of one free rollout from the first
+   sample); where the residual lives after (phase, nodes, axes, frequency bands,
+   :func:`localize`); the parameters the re-tuning left at a bound of the box (belief.bounds).
+
+The components replace parts criticism never tries against each other: once an actuator is
+swapped, the catalog's other actuator replacements are dropped from the search
+(:func:`superseded`).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
+from belief.least_squares import LeastSquaresConfig
+from criticism.errors import CriticismError
+from criticism.residuals import residual_dataset, residual_summary
+from criticism.search import CriticismConfig, polish
+from physics.effects import CableAnchors, EndCapRadius, TensionLimitedActuation
+from physics.effects.base import Effect
+from physics.errors import PhysicsError
+from physics.trajectory_objective import TrajectoryObjective
+
+__all__ = ["MismatchConfig", "Trial", "HeldScores", "MismatchReport", "absorb_mismatch", "localize", "superseded",
+           "held_scores", "measured_rod_length", "FREQUENCY_BANDS"]
+
+#: Effects that replace the same component: at most one of each group in a model.
+COMPONENT_GROUPS: tuple[frozenset[str], ...] = (frozenset({"rate_limited_actuator", "tension_limited_actuator"}),)
+#: Edges [Hz] of the frequency bands of :func:`localize` (the last band runs to the Nyquist frequency).
+FREQUENCY_BANDS: tuple[float, ...] = (0.0, 1.0, 5.0, 15.0)
+
+
+def _default_components() -> tuple[Effect, ...]:
+    return (TensionLimitedActuation(), CableAnchors(), EndCapRadius())
+
+
+@dataclass(frozen=True)
+class MismatchConfig:
+    """components: the component changes tried (physics.effects instances); min_gain: the fraction
+    of the fit error a component must remove to be kept; rounds: most components kept;
+    drift_time [s]: when the open-loop drift is read; local: the least-squares re-tuning;
+    bound_tolerance: fraction of the box width within which a value is at a bound; hold_measured:
+    set ``rod_length`` to the data's node distance and hold it (:func:`measured_rod_length`)."""
+
+    components: tuple[Effect, ...] = field(default_factory=_default_components)
+    min_gain: float = 0.1
+    rounds: int = 2
+    drift_time: float = 0.5
+    local: LeastSquaresConfig = field(default_factory=LeastSquaresConfig)
+    bound_tolerance: float = AT_BOUND_TOLERANCE
+    hold_measured: bool = True
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.min_gain < 1.0 and self.rounds >= 0 and self.drift_time > 0):
+            raise CriticismError(f"MismatchConfig needs 0 < min_gain < 1, rounds >= 0 and drift_time > 0 s, got "
+                                 f"{self.min_gain!r}, {self.rounds!r}, {self.drift_time!r}.")
+        if not all(isinstance(c, Effect) for c in self.components):
+            raise CriticismError("MismatchConfig.components must be physics.effects.Effect instances.")
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One component tried in a round: its fitted parameters, the fit error after the joint
+    re-tuning, its gain over the model of that round, whether it was kept, and the full θ."""
+
+    round: int
+    name: str
+    values: dict[str, float]
+    fit_error: float
+    gain: float
+    kept: bool
+    theta: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class HeldScores:
+    """Per held-out trajectory ("t{k}"): one-step error Σ||r||² [m²], the objective's windowed error
+    [m²], and the open-loop drift [m] at the configured time."""
+
+    one_step: dict[str, float]
+    windows: dict[str, float]
+    drift: dict[str, float]
+
+    def totals(self) -> dict[str, float]:
+        """Summed one-step and windowed errors, and the mean drift."""
+        return {"one_step": sum(self.one_step.values()), "windows": sum(self.windows.values()),
+                "drift": float(np.mean(list(self.drift.values()))) if self.drift else float("nan")}
+
+
+@dataclass
+class MismatchReport:
+    """The stage's outcome (module docstring): the kept components, the augmented model's re-tuned
+    θ and parameter names, θ_b, every trial, the held-out scores before and after, where the
+    residual lives before and after, the parameters at a bound after, and whether the scores are
+    in-sample (no trajectory held out)."""
+
+    effects: tuple[Effect, ...]
+    names: tuple[str, ...]
+    theta: np.ndarray
+    base_theta: np.ndarray
+    trials: list[Trial]
+    before: HeldScores
+    after: HeldScores
+    where_before: dict[str, Any]
+    where_after: dict[str, Any]
+    at_bounds: tuple[AtBound, ...]
+    in_sample: bool = False
+
+    def ratios(self) -> dict[str, float]:
+        """after / before of the totals (one-step, windows, drift)."""
+        b, a = self.before.totals(), self.after.totals()
+        return {k: a[k] / b[k] if b[k] > 0 else float("nan") for k in b}
+
+    def text(self) -> str:
+        """The stage as a few lines of text: trials, scores before and after, where the residual lives, bounds."""
+        lines = ["mismatch stage: " + (", ".join(e.name for e in self.effects) or "no component kept")]
+        for t in self.trials:
+            size = ", ".join(f"{k}={v:.4g}" for k, v in t.values.items()) or "no parameter"
+            lines.append(f"  round {t.round}: {t.name:26s} fit error {t.fit_error:.4g} gain {t.gain:6.1%}  {size}"
+                         + ("  <- kept" if t.kept else ""))
+        b, a, r = self.before.totals(), self.after.totals(), self.ratios()
+        scope = "in-sample (nothing held out)" if self.in_sample else "held-out"
+        lines.append(f"  {scope} one-step error {b['one_step']:.4g} -> {a['one_step']:.4g} ({r['one_step']:.2f}x); "
+                     f"windowed {b['windows']:.4g} -> {a['windows']:.4g} ({r['windows']:.2f}x); drift "
+                     f"{1e3 * b['drift']:.1f} -> {1e3 * a['drift']:.1f} mm ({r['drift']:.2f}x)")
+        lines.append("  residual after: " + where_text(self.where_after))
+        for bound in self.at_bounds:
+            lines.append(f"  {bound.name} at its {bound.side} bound {bound.bound:.4g} {bound.unit}")
+        return "\n".join(lines)
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-able record of the stage."""
+        return {"effects": [e.config() for e in self.effects], "names": list(self.names),
+                "theta": self.theta.tolist(), "base_theta": self.base_theta.tolist(),
+                "trials": [vars(t) for t in self.trials], "before": vars(self.before), "after": vars(self.after),
+                "ratios": self.ratios(), "where_before": self.where_before, "where_after": self.where_after,
+                "at_bounds": [vars(b) for b in self.at_bounds], "in_sample": self.in_sample}
+
+
+def where_text(where: dict[str, Any]) -> str:
+    """One line from :func:`localize`: shares by phase, the top nodes, shares by axis and frequency band."""
+    phases = ", ".join(f"{k} {v['share']:.0%}" for k, v in where["phases"].items())
+    axes = ", ".join(f"{k} {v:.0%}" for k, v in where["axis_share"].items())
+    bands = ", ".join(f"{k} {v:.0%}" for k, v in where["frequency_share"].items())
+    return f"by phase {phases}; nodes {where['top_nodes']}; by axis {axes}; by frequency {bands}"
+
+
+def superseded(effects: Sequence[Effect], kept: Sequence[Effect]) -> list[Effect]:
+    """``effects`` without those that replace a component one of ``kept`` already replaced
+    (COMPONENT_GROUPS) or that are already in ``kept``."""
+    taken = {e.name for e in kept}
+    blocked = set(taken).union(*(group for group in COMPONENT_GROUPS if group & taken))
+    return [e for e in effects if e.name not in blocked]
+
+
+def _variant(objective: TrajectoryObjective, trajectories: Sequence[int], horizon: int | str) -> TrajectoryObjective:
+    """A serial objective with ``objective``'s model and options on some of its trajectories at ``horizon``."""
+    data = [objective.trajectories[k] for k in trajectories]
+    return TrajectoryObjective(data, horizon=horizon, loss="squared", options=objective.options,
+                               effects=objective.effects, actuators=objective.actuators, n_workers=0)
+
+
+def _drift(objective: TrajectoryObjective, theta: np.ndarray, k: int, at: float) -> float:
+    """Mean node distance [m] between a free rollout from the first sample and trajectory k at ``at`` s
+    after its start (the last sample if shorter); inf if the rollout diverges."""
+    ds = objective.trajectories[k]
+    try:
+        pred = _variant(objective, [k], "rollout").predictions(theta)[0].values
+    except PhysicsError:   # a diverging simulation: the drift is unbounded
+        return float("inf")
+    t = np.asarray(ds["time"].values, float)
+    i = int(np.argmin(np.abs(t - t[0] - at)))
+    return float(np.linalg.norm(pred[i] - np.asarray(ds["nodes"].values[i], float), axis=1).mean())
+
+
+def held_scores(objective: TrajectoryObjective, theta: np.ndarray, held: Sequence[int],
+                drift_time: float) -> HeldScores:
+    """One-step error, windowed error (``objective``'s horizon) and drift at ``drift_time`` [s] of the
+    trajectories ``held`` (indices into ``objective.trajectories``) at θ (D,)."""
+    one, windows, drift = {}, {}, {}
+    for k in held:
+        key = f"t{k}"
+        one[key] = float(_variant(objective, [k], 1)(theta))
+        windows[key] = float(_variant(objective, [k], objective.horizon)(theta))
+        drift[key] = _drift(objective, theta, k, drift_time)
+    return HeldScores(one, windows, drift)
+
+
+def _band_shares(residual: np.ndarray, interval: float) -> dict[str, float]:
+    """Share of Σ|R(f)|² per band of FREQUENCY_BANDS, R the FFT over time of the one-step residual (T x m)."""
+    r = np.nan_to_num(np.asarray(residual, float), nan=0.0)
+    power = (np.abs(np.fft.rfft(r - r.mean(axis=0), axis=0)) ** 2).sum(axis=1)
+    freq = np.fft.rfftfreq(len(r), d=interval)
+    edges = [*FREQUENCY_BANDS, np.inf]
+    total = float(power.sum())
+    out = {}
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        label = f"{lo:g}-{hi:g} Hz" if np.isfinite(hi) else f">{lo:g} Hz"
+        out[label] = float(power[(freq >= lo) & (freq < hi)].sum()) / total if total > 0 else float("nan")
+    return out
+
+
+def localize(objective: TrajectoryObjective, theta: np.ndarray, trajectories: Sequence[int]) -> dict[str, Any]:
+    """Where the one-step residual of ``trajectories`` lives at θ: criticism.residuals' summary (shares
+    by phase, top nodes, shares by axis) plus ``frequency_share``, the share of its power per band
+    of FREQUENCY_BANDS (averaged over the trajectories)."""
+    one = _variant(objective, trajectories, 1)
+    preds = one.predictions(theta)
+    summary = residual_summary(residual_dataset(one, theta, predictions=preds))
+    shares = []
+    for ds, pred in zip(one.trajectories, preds, strict=True):
+        r = (np.asarray(ds["nodes"].values, float) - np.asarray(pred.values, float)).reshape(len(pred), 36)
+        t = np.asarray(ds["time"].values, float)
+        shares.append(_band_shares(r[1:], float(t[1] - t[0])))
+    summary["frequency_share"] = {k: float(np.mean([s[k] for s in shares])) for k in shares[0]}
+    return summary
+
+
+def measured_rod_length(objective: TrajectoryObjective) -> float:
+    """The rod length the data show [m]: the median over samples and rods of |x_{2i+1} - x_{2i}|.
+
+    Every prediction starts from observed nodes, and a model rod of another length misplaces both
+    its nodes in every sample; a re-tuning on open-loop windows would trade that offset for
+    dynamics it cannot otherwise match, so the stage holds rod_length at this value."""
+    lengths = [np.linalg.norm(np.asarray(ds["nodes"].values, float)[:, 1::2] - np.asarray(ds["nodes"].values,
+                                                                                          float)[:, 0::2], axis=2)
+               for ds in objective.trajectories]
+    return float(np.nanmedian(np.concatenate([v.ravel() for v in lengths])))
+
+
+def _held(objective: TrajectoryObjective, config: MismatchConfig) -> set[str]:
+    return {"rod_length"} if config.hold_measured and "rod_length" in objective.space.names else set()
+
+
+def _retune(objective: TrajectoryObjective, theta: np.ndarray, fit: np.ndarray,
+            config: MismatchConfig) -> tuple[np.ndarray, float]:
+    """θ re-tuned on the fit segments by least squares, held parameters (:func:`_held`) kept; (θ, E_F)."""
+    held = _held(objective, config)
+    indices = [j for j, name in enumerate(objective.space.names) if name not in held]
+    result = polish(objective, theta, fit, CriticismConfig(local=config.local), indices=indices)
+    return np.asarray(result.theta, float), float(result.error)
+
+
+def _extend(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], effect: Effect, order: Sequence[str],
+            fit: np.ndarray) -> tuple[TrajectoryObjective, np.ndarray]:
+    """``objective`` with ``effect`` added, its effects sorted by their place in ``order`` (an
+    actuator replacement before the effects that wrap the actuator), and the start of its
+    re-tuning: of ``thetas`` (each (D,), carried over by parameter name, the new parameters at
+    their nominal values) the one with the lowest error on the ``fit`` segments. The model's
+    re-tuned θ was tuned for the component being replaced (a motor model's parameters stand in
+    for what it lacks), so the stage's own start θ0 is the other candidate."""
+    rank = {name: k for k, name in enumerate(order)}
+    effects = sorted((*objective.effects, effect), key=lambda e: rank.get(e.name, len(rank)))
+    extended = objective.with_effects(tuple(effects))
+    starts = []
+    for theta in thetas:
+        values = dict(zip(objective.space.names, np.asarray(theta, float).tolist(), strict=True))
+        values.update({p.name: p.nominal for p in effect.parameters()})
+        starts.append(np.array([values[n] for n in extended.space.names]))
+    scores = extended.evaluate_batch(np.array(starts))
+    ok = [k for k, status in enumerate(scores.status) if status == "ok"]
+    best = min(ok, key=lambda k: float(np.nansum(scores.parts[k][fit]))) if ok else 0
+    return extended, starts[best]
+
+
+def _round(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], error: float, fit: np.ndarray,
+           candidates: Sequence[Effect], config: MismatchConfig, k: int,
+           progress: bool) -> list[tuple[Trial, TrajectoryObjective]]:
+    """Each candidate added to ``objective`` (re-tuned at thetas[0], E_F = ``error``; the other
+    thetas are alternative starts, :func:`_extend`) and re-tuned jointly: its trial and the
+    extended objective."""
+    order = [c.name for c in config.components]
+    out = []
+    for effect in tqdm(candidates, desc=f"mismatch round {k}", leave=False, disable=not progress):
+        extended, start = _extend(objective, thetas, effect, order, fit)
+        fitted, fit_error = _retune(extended, start, fit, config)
+        values = {p.name: float(fitted[extended.space.names.index(p.name)]) for p in effect.parameters()}
+        trial = Trial(k, effect.name, values, fit_error, 1.0 - fit_error / error, False, tuple(fitted.tolist()))
+        out.append((trial, extended))
+    return out
+
+
+def _fit_view(objective: TrajectoryObjective, fit: np.ndarray) -> tuple[TrajectoryObjective, np.ndarray, list[int]]:
+    """The objective on the trajectories with a fit segment only (a re-tuning then never simulates a
+    held-out flop), the fit mask over its segments, and the trajectories scored in-sample."""
+    traj = np.array([int(s.split("/")[0][1:]) for s in objective.segments])
+    used = sorted({int(t) for t in traj[fit]})
+    return objective.select(used), fit[np.isin(traj, used)], used
+
+
+def absorb_mismatch(objective: TrajectoryObjective, fit: np.ndarray | Sequence[bool], held: Sequence[int], *,
+                    theta: np.ndarray | None = None, config: MismatchConfig = MismatchConfig(),
+                    progress: bool = True) -> MismatchReport:
+    """Run the stage of the module docstring on ``objective`` (its loss must be "squared").
+
+    fit: mask (S,) over the objective's segments the re-tuning uses; held: indices of the held-out
+    trajectories that are scored (empty: the fit trajectories are scored, in-sample); theta: the
+    start θ0 (D,) (default: the space's nominal θ; with ``hold_measured`` its rod_length is the data's)."""
+    fit_mask = np.asarray(fit, bool)
+    if fit_mask.shape != (len(objective.segments),) or not fit_mask.any():
+        raise CriticismError(f"fit must be a non-empty boolean mask over the {len(objective.segments)} segments.")
+    if objective.loss != "squared":
+        raise CriticismError("the mismatch stage needs TrajectoryObjective(..., loss='squared').")
+    model, fit_mask, fitted_on = _fit_view(objective, fit_mask)
+    start = np.array(objective.space.nominal if theta is None else theta, float)
+    if _held(objective, config):
+        j = list(objective.space.names).index("rod_length")
+        start[j] = np.clip(measured_rod_length(model), objective.space.lower[j], objective.space.upper[j])
+    scored = list(held) or fitted_on
+    base_theta, error = _retune(model, start, fit_mask, config)
+    current, trials = base_theta, []
+    for k in range(1, config.rounds + 1):
+        restart = np.array([dict(zip(objective.space.names, start, strict=True)).get(n, v)
+                            for n, v in zip(model.space.names, current, strict=True)])
+        tried = _round(model, [current, restart], error, fit_mask, superseded(config.components, model.effects),
+                       config, k, progress)
+        if not tried:
+            break
+        best = max(range(len(tried)), key=lambda j: tried[j][0].gain)
+        keep = tried[best][0].gain >= config.min_gain
+        trials += [replace(t, kept=keep and j == best) for j, (t, _) in enumerate(tried)]
+        if not keep:
+            break
+        trial, model = tried[best]
+        current, error = np.asarray(trial.theta, float), trial.fit_error
+    bounds = at_bounds(model.space, current, tolerance=config.bound_tolerance, source="re-tuning")
+    added = tuple(e for e in model.effects if e not in objective.effects)
+    after = objective.with_effects(model.effects)
+    return MismatchReport(added, model.space.names, current, base_theta,
+                          trials, held_scores(objective, base_theta, scored, config.drift_time),
+                          held_scores(after, current, scored, config.drift_time),
+                          localize(objective, base_theta, scored), localize(after, current, scored), tuple(bounds),
+                          in_sample=not list(held))

@@ -1,0 +1,155 @@
+"""Cable anchors off the rod axis: each cable end sits ``anchor_offset`` [m] from its node, on the
+end cap's rim, toward the cable's other end (as on SUPERball's end caps and in NTRT-like engines).
+
+The T6's cable kernel (physics.cables) pulls on the nodes, on the rod axis. For cable j between
+nodes a and b (rod axes â, b̂) the anchors are
+
+    e_a = unit((n_b - n_a) - ((n_b - n_a)·â) â),   p_a = n_a + ρ e_a      (and p_b alike, ρ = anchor_offset)
+
+and the cable pulls along p_b - p_a. Its rest length is the model's plus δ_j = L_anchor,build -
+L_node,build (the cable was assembled anchor to anchor with the same pretension), so its tension is
+
+    T_j' = max(0, T_j + k ((|p_b - p_a| - |n_b - n_a|) - δ_j))
+
+with T_j the node cable's tension (damping included). Each step this effect removes the node
+cable's force and applies T_j' at the anchors, as node forces with the same net force and the
+same torque perpendicular to the rod (a torque about a rod's own axis cannot be carried by its
+two nodes; the model's axial spin damper stands for it). ρ = 0 is the T6 without the effect. A
+cable still never pushes: T_j' >= 0 along the anchor-to-anchor line.
+
+The node cables' tensions are read from the actuator's ``step`` calls (the model hands the
+actuator its tension array every step), so the correction starts with the model's first step; the
+effect wraps the actuator present when it is applied, so it must come after any effect that
+replaces the actuator, or stepping raises PhysicsError.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numba import njit
+
+from physics.actuators import Actuator
+from physics.effects.base import Effect, ModelSetup
+from physics.errors import PhysicsError
+from physics.geometry import CABLE_NODES, node_positions
+from physics.parameters import Parameter
+
+__all__ = ["CableAnchors", "anchor_points", "anchor_forces"]
+
+_A = np.ascontiguousarray(CABLE_NODES[:, 0])
+_B = np.ascontiguousarray(CABLE_NODES[:, 1])
+
+
+@njit(cache=True)
+def _anchor(nodes: np.ndarray, me: int, other: int, offset: float) -> np.ndarray:
+    """Anchor (3,) of the cable end at node ``me`` toward node ``other``: ``offset`` off the axis."""
+    mate = me ^ 1
+    axis = nodes[mate] - nodes[me]
+    axis = axis / np.sqrt((axis * axis).sum())
+    d = nodes[other] - nodes[me]
+    perp = d - (d * axis).sum() * axis
+    norm = np.sqrt((perp * perp).sum())
+    if norm < 1e-12:
+        return nodes[me].copy()
+    return nodes[me] + offset * perp / norm
+
+
+def anchor_points(nodes: np.ndarray, offset: float) -> np.ndarray:
+    """Anchors (24 x 2 x 3) [m] of the cables at node positions (12 x 3) (module docstring)."""
+    out = np.empty((len(_A), 2, 3))
+    for j in range(len(_A)):
+        out[j, 0] = _anchor(nodes, _A[j], _B[j], offset)
+        out[j, 1] = _anchor(nodes, _B[j], _A[j], offset)
+    return out
+
+
+@njit(cache=True)
+def _at_anchor(nodes: np.ndarray, node: int, point: np.ndarray, force: np.ndarray, out: np.ndarray) -> None:
+    """Add the force (3,) acting at ``point`` on the rod of ``node`` to its two nodes: same net force,
+    same torque perpendicular to the rod about its centre."""
+    lo = node - node % 2
+    c = 0.5 * (nodes[lo] + nodes[lo + 1])
+    span = nodes[lo + 1] - nodes[lo]
+    h = 0.5 * np.sqrt((span * span).sum())
+    axis = span / (2.0 * h)
+    torque = np.cross(point - c, force)
+    torque = torque - (torque * axis).sum() * axis
+    g = np.cross(torque, axis) / h           # f1 - f0: h axis x g = torque
+    out[lo] += 0.5 * (force - g)
+    out[lo + 1] += 0.5 * (force + g)
+
+
+@njit(cache=True)
+def anchor_forces(nodes: np.ndarray, tension: np.ndarray, offset: float, stiffness: float,
+                  delta: np.ndarray, out: np.ndarray) -> None:
+    """Add to ``out`` (12 x 3) [N] the anchor cables' node forces minus the node cables' (module
+    docstring), from node positions (12 x 3) and node-cable tensions (24,) [N]."""
+    for j in range(_A.shape[0]):
+        a, b = _A[j], _B[j]
+        d = nodes[b] - nodes[a]
+        length = np.sqrt((d * d).sum())
+        u = d / length
+        pa, pb = _anchor(nodes, a, b, offset), _anchor(nodes, b, a, offset)
+        e = pb - pa
+        anchored = np.sqrt((e * e).sum())
+        t_node = tension[j]
+        t_anchor = 0.0
+        if t_node > 0.0:
+            t_anchor = max(0.0, t_node + stiffness * ((anchored - length) - delta[j]))
+        out[a] -= t_node * u
+        out[b] += t_node * u
+        f = t_anchor * e / anchored
+        _at_anchor(nodes, a, pa, f, out)
+        _at_anchor(nodes, b, pb, -f, out)
+
+
+class _TensionTap:
+    """The model's actuator, unchanged, that keeps a reference to the tension array it is stepped with."""
+
+    def __init__(self, inner: Actuator) -> None:
+        self.inner = inner
+        self.tension: np.ndarray | None = None
+
+    def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
+        self.tension = tension
+        self.inner.step(rest, speed, target, tension)
+
+    def follow(self, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
+               substeps: int, law: tuple) -> tuple[np.ndarray, np.ndarray]:
+        return self.inner.follow(lengths, rates, targets, rest0, substeps, law)
+
+    def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
+        return self.inner.speed_from_rest(rate)
+
+
+class CableAnchors(Effect):
+    """Cables anchored ``anchor_offset`` [m] off the rod axis, on the end caps' rims (module docstring)."""
+
+    name = "cable_anchors"
+    description = "cable ends anchored on the end caps' rims, off the rod axis"
+
+    def parameters(self) -> tuple[Parameter, ...]:
+        return (Parameter("anchor_offset", "m", 0.0, 0.0, 0.1, "distance of a cable's anchor from its node",
+                          strict=False),)
+
+    def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
+        offset = float(values["anchor_offset"])
+        if offset <= 0.0:
+            return
+        build = node_positions(params["rod_length"], params["rod_space"])
+        anchors = anchor_points(build, offset)
+        delta = (np.linalg.norm(anchors[:, 1] - anchors[:, 0], axis=1)
+                 - np.linalg.norm(build[_B] - build[_A], axis=1))
+        tap = _TensionTap(setup.actuator)
+        setup.actuator = tap
+        stiffness = float(params["stiffnessActive"])
+
+        def term(nodes: np.ndarray, velocities: np.ndarray, out: np.ndarray) -> None:
+            if setup.actuator is not tap:
+                raise PhysicsError("cable_anchors lost its actuator: list it after every effect that replaces "
+                                   "the actuator.")
+            if tap.tension is not None:     # None until the model's first step hands over its tensions
+                anchor_forces(nodes, tap.tension, offset, stiffness, delta, out)
+
+        setup.force_terms.append(term)
