@@ -13,11 +13,11 @@
     5  marginals of P and a verdict per parameter (belief.verdicts.decide)
     6  if any parameter is (weakly) identified: the Jacobian over all parameters at the best
        evaluated θ and one Gauss-Newton step (D + 4 evaluations); a much better fit outside a
-       parameter's interval, or a local std wider than P's, withdraws its verdict (belief.verdicts
-       rule 5)
+       parameter's interval, or a local std wider than P's, withdraws its verdict (the "local
+       refit" and "local width" rules of belief.verdicts)
     7  parameters the data narrow whose fitted θ (the step's θ′, else the best evaluated θ) sits at
-       a bound of the box are not identified and listed in attrs["at_bounds"] (belief.verdicts
-       rule 6, belief.bounds)
+       a bound of the box are not identified and listed in attrs["at_bounds"] (the "at bound"
+       rule, belief.bounds)
 
 Objectives without residuals (``residuals`` raises :class:`~physics.errors.NoResidualsError`, as
 a wrapped plain function does) fall back to the "iid" rule and skip step 6; objectives with one
@@ -47,6 +47,7 @@ from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogat
 from belief.surrogate import GPSurrogate, SurrogateConfig
 from belief.verdicts import (
     VerdictConfig,
+    because,
     budget_warning,
     decide,
     loglik_sd,
@@ -136,7 +137,8 @@ def _segment_marginals(records: Sequence[Record], grid: CandidateSet, theta_cell
 
 def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], marg: xr.Dataset, noise: NoiseLevel,
                cfg: VerdictConfig) -> tuple[dict[str, str], np.ndarray | None, dict[str, Any]]:
-    """(conflicts, local ratio (D,) or None, info) of rule 5 (belief.verdicts) from one Gauss-Newton
+    """(conflicts, local ratio (D,) or None, info) of the "local refit" and "local width" rules
+    (belief.verdicts) from one Gauss-Newton
     step of all parameters from the best evaluated θ.
 
     ``info`` goes to the Belief's attrs["local_fit"]: θ′, E(θ′), E(θ̂), evaluations and the local
@@ -161,7 +163,7 @@ def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], m
 
 def _pinned(space: ParameterSpace, best_theta: np.ndarray | Sequence[float], local: dict[str, Any], marg: xr.Dataset,
             cfg: VerdictConfig, ratio: np.ndarray | None) -> tuple[AtBound, ...]:
-    """Rule 6 (belief.verdicts): parameters the data narrow at a bound of the fitted θ, which is the
+    """The "at bound" rule (belief.verdicts): parameters the data narrow at a bound of the fitted θ, which is the
     local fit's θ′ when the step moved (its best point), else the best evaluated θ."""
     best = np.asarray(best_theta, dtype=float)
     fitted, source = best, "best evaluation"
@@ -216,7 +218,8 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
         extra, ratio, local = _local_fit(objective, best.theta, marg, noise, vcfg)
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, config=vcfg, local_ratio=ratio,
-                               conflicts={**extra, **conflicts, **{a.name: a.reason() for a in at_bound}})
+                               conflicts={**extra, **conflicts,
+                                          **{a.name: because("at bound", a.reason()) for a in at_bound}})
     best_mass = float(p[best.cell])
     trust = trust_note(marg, verdicts, best_theta=best.theta, verified=vmass, best_mass=best_mass, config=vcfg,
                        local_ratio=ratio)

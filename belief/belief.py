@@ -10,10 +10,11 @@ A Belief holds, for the n cells of a latent grid (``Grid`` or ``SobolCandidates`
   :meth:`grid` rebuild exactly the decoder and the cells that produced it;
 - ``verdict`` and ``reason``: per parameter, "identified", "weakly identified" or "not
   identified" and why (given by whoever builds the Belief, e.g. :mod:`belief.assess`; by default
-  from P alone, see :func:`default_verdicts`);
+  from P alone, see :func:`default_verdicts`); a reason starts with the name of the verdict rule
+  that decided it (:data:`belief.verdicts.RULES`), read back as :attr:`Belief.rules`;
 - ``attrs``: free-form JSON-able provenance (noise rule, σ², warnings, ...); ``attrs["at_bounds"]``
-  lists the parameters pinned at a bound of the box after fitting (:mod:`belief.bounds`, verdict
-  rule 6), read back as :attr:`Belief.at_bounds` and shown in :meth:`Belief.summary`.
+  lists the parameters pinned at a bound of the box after fitting (:mod:`belief.bounds`, the "at
+  bound" verdict rule), read back as :attr:`Belief.at_bounds` and shown in :meth:`Belief.summary`.
 
 It is used without re-running anything: :meth:`sample` draws θ with probability P (a draw is a
 cell's decoded centre, so draws are discrete on the n cells), :meth:`marginals` gives per-parameter
@@ -39,7 +40,7 @@ from belief.bounds import AT_BOUND_TOLERANCE, AtBound, entries_from_records, ina
 from belief.errors import BeliefError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.posterior import entropy, marginals
-from belief.verdicts import VERDICTS, default_verdicts
+from belief.verdicts import VERDICTS, default_verdicts, rule_of
 from embeddings import Decoder, decoder_from_config
 from physics.parameters import Parameter, ParameterSpace
 
@@ -234,13 +235,19 @@ class Belief:
 
     @property
     def at_bounds(self) -> tuple[AtBound, ...]:
-        """Parameters pinned at a bound of the box after fitting (attrs["at_bounds"], verdict rule 6)."""
+        """Parameters pinned at a bound of the box after fitting (attrs["at_bounds"], the "at bound" verdict rule)."""
         return entries_from_records(self.attrs.get("at_bounds"), self.space.names)
 
     @property
     def verdicts(self) -> dict[str, tuple[str, str]]:
         """parameter name -> (verdict, reason)."""
         return {n: (v, r) for n, v, r in zip(self.space.names, self.verdict, self.reason, strict=True)}
+
+    @property
+    def rules(self) -> list[str]:
+        """The verdict rule that decided each parameter's verdict (belief.verdicts.RULES; "" when its
+        reason names none), read from the reasons: shape ``D``."""
+        return [rule_of(r) for r in self.reason]
 
     def entropy(self) -> float:
         """Shannon entropy -Σ P log P of P over the cells [nats] (0 for one cell, log n for uniform P)."""

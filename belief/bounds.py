@@ -9,8 +9,8 @@ the box is too narrow. In the unit box u = (θ - lower) / (upper - lower) (physi
 
 with ``tolerance`` a fraction of the box width (:data:`AT_BOUND_TOLERANCE`, 1 %). :func:`at_bounds`
 is this test alone; who calls it decides which fitted θ counts and which parameters the data see:
-:mod:`belief.verdicts` rule 6 in identify (parameters P narrows, at the local fit or the best
-evaluation), :mod:`criticism.diagnose` (parameters the re-tuning moved to a bound, or identify had
+:mod:`belief.verdicts`' "at bound" rule in identify (parameters P narrows, at the local fit or the
+best evaluation), :mod:`criticism.diagnose` (parameters the re-tuning moved to a bound, or identify had
 pinned there). Every entry is an :class:`AtBound`; :func:`inadequacy_text` is the block the
 summaries print.
 """
@@ -65,7 +65,7 @@ class AtBound:
         return f"{self.name} at {self.side} bound {self.bound:.4g}{unit}{rel}"
 
     def reason(self) -> str:
-        """The verdict reason of a pinned parameter (belief.verdicts rule 6)."""
+        """The verdict reason of a pinned parameter (the "at bound" rule of belief.verdicts)."""
         return (f"pinned at the {self.side} bound {self.bound:.4g} by the {self.source}: the data push it out of "
                 "the box, so the value is the bound, not an estimate (the model may lack an effect, or the box "
                 "is too narrow)")

@@ -18,22 +18,29 @@ train-embedding`` or ``decoder.save``). Several data files make one objective: E
 one-step errors of all trajectories, each split into ``--windows`` segments.
 
 Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` and
-``marginals.csv``, ``history.csv``, ``error_vs_evaluations.png``, ``posterior_marginals.png``
-(and ``posterior_2d.png`` for 2-D grids, ``observed_vs_predicted.png`` with rollouts at the
-nominal, best and posterior-mean θ of the first trajectory for trajectory data), and journals to
+``marginals.csv``, ``history.csv``, ``error_vs_evaluations.png``, ``posterior_marginals.png``,
+``pairs.png`` (the most correlated parameters in pairs), ``report.html`` (one self-contained page
+to hand on: figures, verdicts, data checks, settings) (and ``posterior_2d.png`` for 2-D grids,
+``observed_vs_predicted.png`` with rollouts at the nominal, best and posterior-mean θ of the
+first trajectory for trajectory data), and journals to
 ``DIR/journal.sqlite`` (the latent stage to ``DIR/journal-latent.sqlite``) so an interrupted run
-resumes when re-run. When the data files carry the θ that generated them (simulated data do),
-the summary shows it next to P's intervals. The data files are checked first as by ``tensegrid check``
-(docs/data-format.md): an error stops the run before any evaluation, unless ``--skip-checks``.
+resumes when re-run; a journal of another problem is set aside (``journal.1.sqlite``) unless
+``--resume``. The prior box: ``--nominal NAME=VALUE``, ``--bounds NAME=LO:HI``, ``--params FILE``
+(physics.prior_box), saved as ``prior_box.json``. When the data files carry the θ that generated
+them (simulated data do), the summary shows it next to P's intervals. The data files are checked
+first as by ``tensegrid check`` (docs/data-format.md): an error stops the run before any
+evaluation, unless ``--skip-checks``.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from typing import Any
 
 from belief.presets import DEFAULT_PRESET, PRESETS
+from physics.prior_box import add_prior_box_options, box_record
 
 __all__ = ["register_identify", "run_identify"]
 
@@ -80,28 +87,36 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--discrepancy", type=float, default=0.05,
                    help="ess rule: relative excess error that costs one nat at least (default 0.05)")
     p.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the journal (an error when it is missing or of another problem); without it a "
+                        "journal of another problem is set aside as journal.1.sqlite and the run starts afresh")
+    add_prior_box_options(p)
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.add_argument("--skip-checks", action="store_true",
                    help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
+    p.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                   help="physics step; must divide every file's sampling interval (default: per file, the largest "
+                        "step <= 1 ms that does; docs/data-format.md)")
     p.set_defaults(func=run_identify)
 
 
-def _push_objective(seed: int) -> tuple[Any, Any]:
+def _push_objective(seed: int, space: Any) -> tuple[Any, Any]:
     import numpy as np
 
-    from physics.push import PushObjective, generate_push_data, push_space
+    from physics.push import PushObjective, generate_push_data
 
-    space = push_space()
     truth = np.array([1.0, 0.4])
     impulses, observed = generate_push_data(truth, n=8, noise_std=0.05, seed=seed)
     return PushObjective(impulses, observed, space=space, noise_std=0.05), truth
 
 
 def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, *, title: str = "") -> None:
-    """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ, for one trajectory."""
+    """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ, for one trajectory;
+    the figure says why when the best θ's rollout drifts further than the nominal one's."""
+    from belief.plots import rollout_note
     from physics.errors import PhysicsError
-    from physics.plotting import plot_observed_vs_predicted
+    from physics.plotting import plot_observed_vs_predicted, rollout_errors
     from physics.trajectory_objective import TrajectoryObjective
 
     thetas = {"nominal": space.nominal, "best": result.best_theta.values,
@@ -114,7 +129,8 @@ def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, *, title: s
             except PhysicsError as exc:  # a rollout may diverge; say so and draw the others
                 print(f"tensegrid identify: rollout at the {name} theta diverged ({exc}); not drawn", file=sys.stderr)
     if preds:
-        plot_observed_vs_predicted(dataset, preds, path, title=title or "observed vs rollout predictions")
+        plot_observed_vs_predicted(dataset, preds, path, title=title or "observed vs rollout predictions",
+                                   note=rollout_note(rollout_errors(dataset, preds)))
 
 
 def _data_truth(datasets: list[Any], space: Any) -> Any:
@@ -133,32 +149,40 @@ def _data_truth(datasets: list[Any], space: Any) -> Any:
 
 
 def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
-    """(objective, true θ or None, datasets) from the data files or the toy."""
+    """(objective, true θ or None, datasets) from the data files or the toy, over the prior box of
+    --nominal, --bounds and --params (validated before the data are loaded)."""
+    from physics.prior_box import prior_box_from_args
+
+    space = prior_box_from_args(args, _default_space(args))
     if args.toy == "push":
-        objective, truth = _push_objective(args.seed)
+        objective, truth = _push_objective(args.seed, space)
         return objective, truth, []
+    from physics.predictor import dt_option
     from physics.trajectory import load_trajectory
     from physics.trajectory_objective import TrajectoryObjective
 
     datasets = [load_trajectory(path) for path in args.data]
+    options = dt_option(getattr(args, "dt", None), datasets, name="--dt")   # StepSizeError before any evaluation
     if not getattr(args, "skip_checks", False):
         from physics.cli_check import preflight
 
         preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
-    objective = TrajectoryObjective(datasets, horizon=1, loss=args.loss, windows=args.windows,
-                                n_workers=args.workers if args.workers > 1 else 0)
+    objective = TrajectoryObjective(datasets, space=space, horizon=1, loss=args.loss, windows=args.windows,
+                                options=options, n_workers=args.workers if args.workers > 1 else 0)
     return objective, _data_truth(datasets, objective.space), datasets
 
 
 def _latent_decoder(args: argparse.Namespace, space: Any) -> Any:
-    """The latent decoder named on the command line, or None (the preset's default)."""
+    """The latent decoder named on the command line, else the one shipped for this box when the preset
+    has a latent stage, else None (such a preset then runs without it, with a PresetWarning)."""
     from embeddings import REMBO, load_decoder
     from embeddings.errors import EmbeddingError
+    from embeddings.pretrained import pretrained_decoder
 
     if args.decoder is None:
         if args.decoder_file:
             raise EmbeddingError("--decoder-file needs --decoder vae, ae-dyn or active (the kind the file holds).")
-        return None
+        return pretrained_decoder(space) if PRESETS[args.preset].uses_latent else None
     if args.decoder == "rembo":
         if args.decoder_file:
             raise EmbeddingError("--decoder-file is for trained decoders (vae, ae-dyn, active), not --decoder rembo.")
@@ -191,40 +215,42 @@ def _preset(args: argparse.Namespace) -> Any:
     return replace(preset, candidates=args.candidates, points_per_dim=args.points_per_dim or 11)
 
 
-def _run(args: argparse.Namespace, objective: Any) -> tuple[Any, Any, Any]:
+def _run(args: argparse.Namespace, objective: Any, decoder: Any) -> tuple[Any, Any, Any]:
     """(result, decoder, grid of P) of the preset with the command line's options; a budget warning goes
-    into the summary, not stderr."""
+    into the summary, not stderr; a journal of another problem is set aside unless --resume."""
     import warnings
 
     from belief.errors import BeliefError, BudgetWarning
+    from belief.journal import run_with_journals
     from belief.posterior import PosteriorConfig
     from belief.presets import PresetWarning, run_preset
 
-    journal: str | None = args.journal or os.path.join(args.out, "journal.sqlite")
-    if journal is not None and journal.lower() == "none":
-        journal = None
+    journal = _journal_path(args)
     config = PosteriorConfig(mode=args.posterior, noise_var=args.noise_var, noise_rule=args.noise_rule,
                              discrepancy=args.discrepancy)
-    decoder = _latent_decoder(args, objective.space)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("ignore", BudgetWarning)      # the summary prints it
         warnings.simplefilter("always", PresetWarning)
-        result = run_preset(objective, _preset(args), budget=args.budget, seed=args.seed, decoder=decoder,
-                            journal=journal, posterior_config=config, time_budget=args.time_budget, q=args.q,
-                            workers=args.workers, progress=not args.no_progress)
-    for note in caught:
-        print(f"tensegrid identify: note: {note.message}", file=sys.stderr)
+        result = run_with_journals(
+            lambda: run_preset(objective, _preset(args), budget=args.budget, seed=args.seed, decoder=decoder,
+                               journal=journal, posterior=config, time_budget=args.time_budget, q=args.q,
+                               progress=not args.no_progress),
+            resume=args.resume, say=_note)
+    for note in dict.fromkeys(str(n.message) for n in caught):     # one line each, once
+        _note(note)
+    result.config["prior_box"] = box_record(objective.space)
     if result.belief is None:       # run_preset builds one whenever a posterior mode is set, as here
         raise BeliefError("the identification returned no belief; the command line needs its posterior.")
     return result, result.belief.decoder(), result.belief.grid()
 
 
 def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth: Any, datasets: list[Any]) -> None:
-    """result.nc, summary.txt, marginals.csv, history.csv and the figures into ``args.out``."""
+    """result.nc, summary.txt, marginals.csv, history.csv, the figures and report.html into ``args.out``."""
     import numpy as np
     import pandas as pd
 
-    from belief.plots import plot_error_trace, plot_marginals, plot_posterior_2d
+    from belief.html_report import write_identify_report
+    from belief.plots import plot_error_trace, plot_marginals, plot_pairs, plot_posterior_2d
 
     out, space = args.out, decoder.space
     result.save(os.path.join(out, "result.nc"))
@@ -246,20 +272,97 @@ def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth
         title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
                  if len(datasets) > 1 else "")
         _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
+    plot_pairs(result.belief, os.path.join(out, "pairs.png"), truth=truth)
+    write_identify_report(out, result, args, datasets, truth=truth)
+
+
+def _note(text: str) -> None:
+    """One line on stderr, ``tensegrid identify: note: TEXT`` (warnings, resumed and set-aside journals)."""
+    print(f"tensegrid identify: note: {text}", file=sys.stderr)
+
+
+def _default_space(args: argparse.Namespace) -> Any:
+    """The parameter space before --nominal, --bounds and --params: the push toy's or the T6's."""
+    from physics.parameters import ParameterSpace
+    from physics.push import push_space
+
+    return push_space() if args.toy == "push" else ParameterSpace.t6()
+
+
+def _journal_path(args: argparse.Namespace) -> str | None:
+    """--journal, by default OUT/journal.sqlite; None for 'none'."""
+    journal: str = args.journal or os.path.join(args.out, "journal.sqlite")
+    return None if journal.lower() == "none" else journal
+
+
+def _budget_note(args: argparse.Namespace, decoder: Any, dim: int) -> str | None:
+    """The warning for a budget that leaves BO nothing after its initial design of max(5, d + 1) Sobol
+    points (belief.search), so that BO never runs; None when BO runs or the preset refuses the budget."""
+    from dataclasses import replace
+
+    from belief.presets import minimum_budget
+    from belief.search import default_n_init
+
+    preset = _preset(args)
+    if preset.uses_latent and decoder is None and preset.search is not None:
+        preset = replace(preset, latent=0)          # the preset runs without its latent stage (PresetWarning)
+    bo_only, latent_only = preset.search == "bo" and preset.latent == 0, preset.search is None and decoder is not None
+    if not (bo_only or latent_only) or args.budget < minimum_budget(preset, dim):
+        return None
+    step = minimum_budget(preset, dim) - minimum_budget(replace(preset, local_step=False), dim)
+    n_init = default_n_init(decoder.dim if preset.search is None else dim)
+    search = args.budget - step
+    if search > n_init:
+        return None
+    where = "the latent grid" if preset.search is None else "the full space"
+    spent = f" after the {step} of the Gauss-Newton step" if step else ""
+    return (f"--budget {args.budget} leaves {search} evaluations{spent} for BO over {where}, no more than its "
+            f"initial design of {n_init} Sobol points: BO never runs (whatever the progress bar says); give "
+            f"--budget {args.budget - search + n_init + 1} or more.")
+
+
+def _before_run(args: argparse.Namespace, objective: Any, decoder: Any) -> None:
+    """The checks and notes due before anything is written: the budget, a journal to --resume, the
+    prior box (printed when it differs from the default) and a budget that leaves BO no step."""
+    from belief.errors import BudgetError, JournalError
+    from physics.outputs import check_output_file
+    from physics.prior_box import box_changes
+
+    if args.budget < 1:
+        raise BudgetError(f"budget must be >= 1 evaluation, got --budget {args.budget}; a zero budget identifies "
+                          "nothing.")
+    journal = _journal_path(args)
+    if journal is not None and args.journal:
+        check_output_file(journal, option="--journal")
+    if args.resume:
+        latent = None if journal is None else os.path.splitext(journal)[0] + "-latent.sqlite"
+        if journal is None or not (os.path.exists(journal) or os.path.exists(str(latent))):
+            raise JournalError(f"--resume: no journal at {journal} to resume; run without --resume to start one.")
+    changes = box_changes(objective.space, _default_space(args))
+    if changes:
+        print(f"prior box: {len(changes)} of {objective.space.dim} parameters differ from the default:\n  "
+              + "\n  ".join(changes))
+    note = _budget_note(args, decoder, objective.space.dim)
+    if note:
+        _note(note)
 
 
 def run_identify(args: argparse.Namespace) -> int:
     """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
     from physics.errors import TensegridError
+    from physics.outputs import check_output_dir, output_dir
 
     if bool(args.data) == (args.toy is not None):
         print("tensegrid identify: give either DATA.nc files or --toy push (exactly one).", file=sys.stderr)
         return 2
     objective = None
     try:
+        check_output_dir(args.out)
         objective, truth, datasets = _objective(args)
-        os.makedirs(args.out, exist_ok=True)
-        result, decoder, grid = _run(args, objective)
+        decoder = _latent_decoder(args, objective.space)
+        _before_run(args, objective, decoder)
+        with output_dir(args.out):          # removed again if the run fails before writing into it
+            result, decoder, grid = _run(args, objective, decoder)
     except TensegridError as exc:
         print(f"tensegrid identify: {exc}", file=sys.stderr)
         return 2
@@ -268,7 +371,9 @@ def run_identify(args: argparse.Namespace) -> int:
         if callable(close):
             close()
     _write(args, result, decoder, grid, truth, datasets)
+    with open(os.path.join(args.out, "prior_box.json"), "w") as fh:     # a --params file of this run's box
+        json.dump(result.config["prior_box"], fh, indent=1)
     print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
     print(result.summary(truth=truth))
-    print(f"wrote {args.out}/result.nc, summary.txt, marginals.csv, history.csv and figures")
+    print(f"wrote {args.out}/result.nc, summary.txt, marginals.csv, history.csv, prior_box.json and figures")
     return 0

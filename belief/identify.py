@@ -10,7 +10,7 @@
 Without a grid, ``identify`` runs a preset over the one driver, its stages choosing their own
 candidate sets; ``decoder`` is then the latent stage's decoder. With a grid it runs one search of
 Algorithm 1 over it with ``decoder``, and ``preset`` must be left out. Every other option goes to
-the stages (journal, time_budget, q, n_init, posterior_config, verdict_config, progress, ...;
+the stages (journal, time_budget, q, n_init, posterior, surrogate, verdict_config, progress, ...;
 belief.search.search lists them).
 """
 from __future__ import annotations

@@ -152,15 +152,15 @@ def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, bu
     if preset.latent == 0:
         on_stage("search")
         return search(objective, full, _full_space(space.dim, full, preset, seed), budget=budget, seed=seed,
-                      journal=journal, method=preset.search, **options)
+                      journal=journal, proposer=preset.search, **options)
     assert decoder is not None
     on_stage("latent")
-    quiet = {k: v for k, v in options.items() if k not in ("posterior_config", "verdict_config")}
+    quiet = {k: v for k, v in options.items() if k not in ("posterior", "verdict_config")}
     first = search(objective, decoder, Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim),
                    budget=preset.latent, seed=seed, journal=_latent_journal(journal), posterior=None, **quiet)
     on_stage("search")
     return continue_in(first, objective, full, budget=budget, seed=seed, n=preset.candidates, journal=journal,
-                       method=preset.search, **options)
+                       proposer=preset.search, **options)
 
 
 def _finish(result: IdentificationResult, objective: Objective, step: StepConfig) -> IdentificationResult:
@@ -191,13 +191,18 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
 
     ``decoder``: the latent stage's decoder (default: the pretrained one for this space, if any);
     ``journal``: SQLite path of the full-space stage (the latent stage journals beside it, suffix
-    ``-latent``); ``space``, ``workers``: for a plain function θ -> E, wrapped once
+    ``-latent``); ``space``, ``workers``: for a plain function θ -> E only, wrapped once
     (physics.objective.as_objective); ``on_stage(name)``: called as "latent", "search",
-    "local_step" start; ``options`` go to each stage (posterior_config, verdict_config, q,
-    n_init, time_budget, progress, ...; belief.search.search).
+    "local_step" start; ``options`` go to each stage (posterior, surrogate, verdict_config, q,
+    n_init, time_budget, progress, ...; belief.search.search), the proposer being the preset's.
     """
     if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
         raise BudgetError(f"budget must be >= 1 evaluation, got {budget!r}; a zero budget identifies nothing.")
+    if "proposer" in options:
+        raise BeliefError("a preset chooses its own proposers; pass a grid and decoder for a search with proposer=.")
+    if isinstance(objective, Objective) and (space is not None or workers != 1):
+        raise BeliefError("space= and workers= wrap a plain function θ -> E; this objective has its own space "
+                          f"({list(objective.space.names)}): leave them out.")
     objective = as_objective(objective, space, workers=workers)
     recipe, latent = _latent_decoder(resolve(preset), objective, decoder)
     on_stage = on_stage or (lambda name: None)

@@ -85,14 +85,13 @@ def sobol_design(grid: CandidateSet, n: int, seed: int) -> list[int]:
     return cells
 
 
-def fit_surrogate(history: Sequence[Record], grid: CandidateSet, config: SurrogateConfig, *,
-                  impute_failed: bool = False) -> GPSurrogate | None:
+def fit_surrogate(history: Sequence[Record], grid: CandidateSet, config: SurrogateConfig) -> GPSurrogate | None:
     """The GP fitted to the successful evaluations (failed ones at the worst error with
-    ``impute_failed``); None with fewer than 2 data."""
+    ``config.impute_failed``); None with fewer than 2 data."""
     ok = [r for r in history if r.status == "ok"]
     Z = [r.z for r in ok]
     E = [r.error for r in ok]
-    if impute_failed and ok:
+    if config.impute_failed and ok:
         bad = [r for r in history if r.status != "ok"]
         Z += [r.z for r in bad]
         E += [max(r.error for r in ok)] * len(bad)
@@ -169,18 +168,16 @@ class BOProposer:
     with fewer than 2 successes, the next cells of a seeded permutation."""
 
     def __init__(self, seed: int, *, surrogate: SurrogateConfig | None = None,
-                 acquisition: Acquisition = select_cells, initial: Proposer | None = None,
-                 impute_failed: bool = False) -> None:
+                 acquisition: Acquisition = select_cells, initial: Proposer | None = None) -> None:
         self.seed = int(seed)
         self.surrogate = surrogate or SurrogateConfig()
         self.acquisition = acquisition
         self.initial = initial if initial is not None else SobolDesign(self.seed)
-        self.impute_failed = bool(impute_failed)
 
     def propose(self, batch: int, history: Sequence[Record], size: int, grid: CandidateSet) -> Proposal:
         if batch == 0:
             return self.initial.propose(batch, history, size, grid)
-        model = fit_surrogate(history, grid, self.surrogate, impute_failed=self.impute_failed)
+        model = fit_surrogate(history, grid, self.surrogate)
         if model is None:
             order = np.random.default_rng([self.seed, 4, batch]).permutation(grid.size)
             return Proposal(_unevaluated(order, history, size))
@@ -190,6 +187,6 @@ class BOProposer:
         return Proposal(self.acquisition(model, grid.points, avail, q=size, prediction=pred), model, pred)
 
     def config(self) -> dict[str, Any]:
-        return {"kind": "bo", "seed": self.seed, "impute_failed": self.impute_failed,
-                "acquisition": _callable_name(self.acquisition), "initial": self.initial.config(),
+        return {"kind": "bo", "seed": self.seed, "acquisition": _callable_name(self.acquisition),
+                "initial": self.initial.config(),
                 "surrogate": {k: getattr(self.surrogate, k) for k in self.surrogate.__dataclass_fields__}}

@@ -118,8 +118,8 @@ class IdentificationResult:
         warn = self.belief.attrs.get("budget_warning")
         local = self.belief.attrs.get("local_fit") or {}
         if "error" in local:
-            tail += (f"\nlocal fit over all parameters (verdict rule 5): one Gauss-Newton step from the best "
-                     f"evaluation gives E {local['error']:.6g} ({local['evaluations']} simulations)")
+            tail += (f"\nlocal fit over all parameters (the local refit verdict rule): one Gauss-Newton step from "
+                     f"the best evaluation gives E {local['error']:.6g} ({local['evaluations']} simulations)")
         trust = self.belief.attrs.get("trust")          # why P cannot be trusted (belief.verdicts.trust_note)
         tail += f"\nwarning: {trust}" if trust else ""
         return self.belief.summary(truth=truth) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")

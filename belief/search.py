@@ -15,21 +15,26 @@ latent grid, returning a distribution P over the grid instead of a point. The pr
     7  fit the GP to all evaluations; assess it into a Belief (σ² from the residuals, P,
        segment posteriors, verdicts: belief.assess); return it with the history and the best θ
 
-Steps 1 and 3-4 are a *proposer* (belief.proposers: ``method="bo"`` is :class:`BOProposer`,
-``method="random"`` :class:`RandomProposer`, or pass ``proposer=``); budgets, journal and
+Steps 1 and 3-4 are a *proposer* (belief.proposers: ``proposer="bo"`` is :class:`BOProposer`,
+``proposer="random"`` :class:`RandomProposer`, or any :class:`Proposer`); budgets, journal and
 evaluation are the driver's (belief.driver).
 
-``method="random"`` replaces steps 3-4 by the next cells of the permutation (random search
+``proposer="random"`` replaces steps 3-4 by the next cells of the permutation (random search
 baseline; with the ``Identity`` decoder on ``SobolCandidates`` it is random search in the full
-space). BO in the full space is ``method="bo"`` with the same decoder and candidates.
+space). BO in the full space is ``proposer="bo"`` with the same decoder and candidates.
 
-A plain function θ -> E is wrapped once in :class:`physics.objective.FunctionObjective`
-(:func:`physics.objective.as_objective`); everything after that sees the Objective contract.
+Options come grouped, one source each: how cells are chosen (``proposer``), how the GP is fitted
+(:class:`~belief.surrogate.SurrogateConfig`, also whether failures are imputed), what P is
+(``posterior``: a mode name or a :class:`~belief.posterior.PosteriorConfig` with σ² and the noise
+rule, or None for no P) and what the verdicts demand (:class:`~belief.verdicts.VerdictConfig`);
+each validates itself. The parameter space is the objective's; a plain function θ -> E is wrapped
+once on the decoder's space (:func:`physics.objective.as_objective`; wrap it yourself in
+:class:`~physics.objective.FunctionObjective` to evaluate batches on threads).
 
 Failed evaluations (the objective raised :class:`physics.errors.PhysicsError`: status "diverged";
 raised another tensegrid error or returned NaN/inf: "failed") are journalled with error NaN, never
-proposed again, and left out of the GP fit (``impute_failed=True`` instead gives them the worst
-observed error, which pushes the search away from them). Their cells get P = 0.
+proposed again, and left out of the GP fit (``SurrogateConfig(impute_failed=True)`` instead gives
+them the worst observed error, which pushes the search away from them). Their cells get P = 0.
 
 Determinism: every batch is a function of the seed and the history before it (the GP fit starts
 from fixed values and runs single-threaded, ties break to the lowest cell index), so a journalled
@@ -53,6 +58,7 @@ import hashlib
 import json
 import math
 import os
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
@@ -61,7 +67,7 @@ import xarray as xr
 
 from belief.assess import assess
 from belief.driver import Budget, DriverResult, run
-from belief.errors import BeliefError, BudgetError, GridError, ObjectiveError
+from belief.errors import BeliefError, BudgetError, BudgetWarning, GridError, ObjectiveError
 from belief.grid import CandidateSet
 from belief.journal import Journal, Record
 from belief.posterior import PosteriorConfig, posterior_from_surrogate
@@ -73,9 +79,10 @@ from embeddings.base import Decoder
 from physics.objective import Objective, ObjectiveFunction, as_objective
 from physics.parameters import ParameterSpace
 
-__all__ = ["search", "problem_fingerprint"]
+__all__ = ["search", "problem_fingerprint", "default_n_init", "PROPOSERS"]
 
-_METHODS = ("bo", "random")
+#: the built-in proposers by name
+PROPOSERS = ("bo", "random")
 
 
 def _space_config(space: ParameterSpace) -> dict[str, Any]:
@@ -83,33 +90,26 @@ def _space_config(space: ParameterSpace) -> dict[str, Any]:
             "lower": [float(v) for v in space.lower], "upper": [float(v) for v in space.upper]}
 
 
-def problem_fingerprint(
-    objective: Objective, decoder: Decoder, grid: CandidateSet, *, space: ParameterSpace, seed: int, method: str,
-    q: int, n_init: int, surrogate: SurrogateConfig, impute_failed: bool, proposer: Proposer | None = None,
-) -> dict[str, Any]:
+def problem_fingerprint(objective: Objective, decoder: Decoder, grid: CandidateSet, proposer: Proposer, *,
+                        seed: int, q: int, n_init: int, surrogate: SurrogateConfig) -> dict[str, Any]:
     """The JSON-able identity of an identification problem, stored in and checked against a journal."""
-    fp: dict[str, Any] = {
-        "space": _space_config(space), "decoder": decoder.config(), "grid": grid.config(), "seed": int(seed),
-        "method": method, "q": int(q), "n_init": int(n_init), "impute_failed": bool(impute_failed),
+    return {
+        "space": _space_config(objective.space), "decoder": decoder.config(), "grid": grid.config(),
+        "seed": int(seed), "q": int(q), "n_init": int(n_init), "proposer": proposer.config(),
         "surrogate": {k: getattr(surrogate, k) for k in surrogate.__dataclass_fields__},
+        "objective": objective.fingerprint(),
     }
-    if proposer is not None:
-        fp["proposer"] = proposer.config()
-    fp["objective"] = objective.fingerprint()
-    return fp
 
 
-def _validate_problem(objective: Objective | ObjectiveFunction, decoder: Decoder, grid: CandidateSet,
-                      space: ParameterSpace | None, workers: int) -> tuple[Objective, ParameterSpace]:
-    """The objective (a plain function wrapped once, on ``workers`` threads) and its parameter space,
+def _validate_problem(objective: Objective | ObjectiveFunction, decoder: Decoder,
+                      grid: CandidateSet) -> tuple[Objective, ParameterSpace]:
+    """The objective (a plain function wrapped once, on the decoder's space) and its parameter space,
     after checking that objective, decoder and grid fit together."""
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise BeliefError(f"workers must be an integer >= 1, got {workers!r}.")
-    objective = as_objective(objective, space, workers=int(workers))
-    space = objective.space
     if not isinstance(decoder, Decoder):
         raise BeliefError(f"decoder must be an embeddings.Decoder (.space, .dim, .bounds, .decode(z)), got "
                           f"{type(decoder).__name__}.")
+    objective = as_objective(objective, None if isinstance(objective, Objective) else decoder.space)
+    space = objective.space
     dspace = decoder.space
     if not dspace.same_box(space):
         raise BeliefError(
@@ -133,7 +133,7 @@ def _validate_problem(objective: Objective | ObjectiveFunction, decoder: Decoder
     return objective, space
 
 
-def _validate_budget(grid: CandidateSet, decoder: Decoder, budget: Any, time_budget: Any, method: str, q: Any,
+def _validate_budget(grid: CandidateSet, decoder: Decoder, budget: Any, time_budget: Any, q: Any,
                      n_init: Any, seed: Any) -> tuple[int, int]:
     """(evaluations to reach, initial design size), after checking budgets and options."""
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
@@ -153,18 +153,35 @@ def _validate_budget(grid: CandidateSet, decoder: Decoder, budget: Any, time_bud
     if time_budget is not None and not (isinstance(time_budget, (int, float)) and math.isfinite(time_budget)
                                         and time_budget > 0):
         raise BudgetError(f"time_budget must be a positive number of seconds, got {time_budget!r}.")
-    if method not in _METHODS:
-        raise BeliefError(f"method must be one of {_METHODS}, got {method!r}.")
     if not isinstance(q, (int, np.integer)) or q < 1:
         raise BudgetError(f"q (cells per batch) must be an integer >= 1, got {q!r}.")
     n_target = int(budget) if budget is not None else int(grid.size)
     if n_init is None:
-        n_init = max(5, decoder.dim + 1)
+        n_init = default_n_init(decoder.dim)
     if not isinstance(n_init, (int, np.integer)) or n_init < 1:
         raise BudgetError(f"n_init must be an integer >= 1, got {n_init!r}.")
-    if method == "bo" and n_init < 2:
-        raise BudgetError(f"method='bo' needs n_init >= 2 initial evaluations to fit the GP, got {n_init}.")
     return n_target, int(n_init)
+
+
+def _proposer(proposer: Proposer | str, seed: int, surrogate: SurrogateConfig, n_init: int) -> Proposer:
+    """The proposer object: a built-in one by name (:data:`PROPOSERS`), or ``proposer`` itself."""
+    if isinstance(proposer, str):
+        if proposer not in PROPOSERS:
+            raise BeliefError(f"proposer must be one of {PROPOSERS} or a belief.Proposer, got {proposer!r}.")
+        if proposer == "random":
+            return RandomProposer(seed)
+        if n_init < 2:
+            raise BudgetError(f"proposer='bo' needs n_init >= 2 initial evaluations to fit the GP, got {n_init}.")
+        return BOProposer(seed, surrogate=surrogate)
+    if not isinstance(proposer, Proposer):
+        raise BeliefError(f"proposer must be one of {PROPOSERS} or a belief.Proposer (propose, config), got "
+                          f"{type(proposer).__name__}.")
+    return proposer
+
+
+def default_n_init(dim: int) -> int:
+    """The initial design's size in a ``dim``-dimensional search when n_init is not given: max(5, d + 1)."""
+    return max(5, int(dim) + 1)
 
 
 def _carried_init(carry: Sequence[Record], n_init: Any) -> Any:
@@ -185,22 +202,22 @@ def _carried_fingerprint(carry: Sequence[Record]) -> dict[str, Any]:
     return {"n": len(carry), "sha256": hashlib.sha256(text.encode()).hexdigest()}
 
 
-def _posterior_config(posterior: Literal["likelihood", "minimizer"] | None, posterior_config: PosteriorConfig | None,
-                      noise_var: float | None) -> PosteriorConfig:
-    if posterior is not None and posterior_config is not None and posterior_config.mode != posterior:
-        raise BeliefError(
-            f"posterior={posterior!r} contradicts posterior_config.mode={posterior_config.mode!r}; give one of them."
-        )
-    pcfg = posterior_config or PosteriorConfig(mode=posterior or "likelihood", noise_var=noise_var)
-    if noise_var is not None and pcfg.noise_var is None:
-        pcfg = PosteriorConfig(**{**pcfg.__dict__, "noise_var": noise_var})
-    return pcfg
+def _posterior_config(posterior: PosteriorConfig | str | None) -> PosteriorConfig | None:
+    """``posterior`` as a PosteriorConfig: a mode name gives that mode's defaults; None stays None (no P)."""
+    if posterior is None or isinstance(posterior, PosteriorConfig):
+        return posterior
+    if posterior == "likelihood":
+        return PosteriorConfig(mode="likelihood")
+    if posterior == "minimizer":
+        return PosteriorConfig(mode="minimizer")
+    raise BeliefError(f"posterior must be 'likelihood', 'minimizer', a belief.PosteriorConfig or None, got "
+                      f"{posterior!r}.")
 
 
 def _callback_hook(callback: Callable[[int, xr.DataArray], None] | None, objective: Objective, grid: CandidateSet,
-                   pcfg: PosteriorConfig, seed: int) -> Callable[[int, Sequence[Record], Proposal], None] | None:
+                   pcfg: PosteriorConfig | None, seed: int) -> Callable[[int, Sequence[Record], Proposal], None] | None:
     """after_batch hook of the driver that reports P (σ² by the iid rule or the known noise) before each batch."""
-    if callback is None:
+    if callback is None or pcfg is None:
         return None
     from belief.noise import iid_noise_var
 
@@ -229,18 +246,12 @@ def search(
     seed: int,
     journal: str | os.PathLike[str] | None = None,
     time_budget: float | None = None,
-    method: Literal["bo", "random"] = "bo",
-    proposer: Proposer | None = None,
+    proposer: Proposer | Literal["bo", "random"] = "bo",
     q: int = 1,
     n_init: int | None = None,
-    posterior: Literal["likelihood", "minimizer"] | None = "likelihood",
-    noise_var: float | None = None,
-    space: ParameterSpace | None = None,
+    posterior: PosteriorConfig | Literal["likelihood", "minimizer"] | None = "likelihood",
     surrogate: SurrogateConfig | None = None,
-    posterior_config: PosteriorConfig | None = None,
     verdict_config: VerdictConfig | None = None,
-    workers: int = 1,
-    impute_failed: bool = False,
     progress: bool = True,
     callback: Callable[[int, xr.DataArray], None] | None = None,
     carry: Sequence[Record] = (),
@@ -248,48 +259,52 @@ def search(
     """Search ``grid`` by Algorithm 1 (module docstring) and return the belief over it.
 
     ``objective``: a physics.objective.Objective, or a plain function θ (shape ``D``) -> E (float)
-    on ``space`` (wrapped in FunctionObjective, batches on ``workers`` threads); ``decoder``: an
-    ``embeddings.Decoder``; ``grid``: a belief.grid.CandidateSet (``belief.Grid`` or
-    ``belief.SobolCandidates``) over ``decoder.bounds``. ``budget``: evaluations; ``time_budget``:
-    seconds (either or both); ``seed``: all randomness; ``journal``: SQLite path,
-    resumed if it exists; ``method``: built-in proposer, or ``proposer=`` any belief.proposers.Proposer;
-    ``q``: cells per batch; ``n_init``: initial design size (default max(5, d + 1)); ``posterior``:
-    mode of P, or None to skip it; ``noise_var``: σ² of the likelihood mode (default: the
-    objective's, else ``posterior_config.noise_rule``); ``verdict_config``: thresholds of the
-    verdicts (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check);
+    on ``decoder.space``; ``decoder``: an ``embeddings.Decoder``; ``grid``: a
+    belief.grid.CandidateSet (``belief.Grid`` or ``belief.SobolCandidates``) over ``decoder.bounds``.
+    ``budget``: evaluations; ``time_budget``: seconds (either or both); ``seed``: all randomness;
+    ``journal``: SQLite path, resumed if it exists; ``proposer``: "bo", "random" or any
+    belief.proposers.Proposer; ``q``: cells per batch; ``n_init``: initial design size (default
+    max(5, d + 1)); ``posterior``: "likelihood", "minimizer" or a PosteriorConfig (σ², noise rule,
+    level, ...; default σ²: the objective's, else the noise rule), None to skip P;
+    ``surrogate``: the GP's options; ``verdict_config``: thresholds of the verdicts
+    (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check);
     ``callback(n_evaluations, P)``: called
     before every batch with a fitted surrogate (one extra pass over the grid per batch); ``carry``:
     evaluations made before this run, as batch 0 (belief.handoff builds them; ``n_init`` is their number).
     """
-    objective, space = _validate_problem(objective, decoder, grid, space, workers)
+    objective, space = _validate_problem(objective, decoder, grid)
     n_init = _carried_init(carry, n_init)
-    n_target, n_init = _validate_budget(grid, decoder, budget, time_budget, method, q, n_init, seed)
+    n_target, n_init = _validate_budget(grid, decoder, budget, time_budget, q, n_init, seed)
     seed, scfg = int(seed), surrogate or SurrogateConfig()
-    pcfg = _posterior_config(posterior, posterior_config, noise_var)
-    custom = proposer is not None
-    if proposer is None:
-        proposer = (RandomProposer(seed) if method == "random"
-                    else BOProposer(seed, surrogate=scfg, impute_failed=impute_failed))
-    fp = problem_fingerprint(objective, decoder, grid, space=space, seed=seed, method=method, q=int(q), n_init=n_init,
-                             surrogate=scfg, impute_failed=impute_failed, proposer=proposer if custom else None)
+    pcfg = _posterior_config(posterior)
+    chooser = _proposer(proposer, seed, scfg, n_init)
+    if isinstance(chooser, BOProposer) and n_target <= n_init:
+        warnings.warn(f"budget={n_target} is no more than the initial design of {n_init} cells: BO never runs and the "
+                      f"result is the initial design's; give budget >= {n_init + 1} (or a smaller n_init).",
+                      BudgetWarning, stacklevel=2)
+    fp = problem_fingerprint(objective, decoder, grid, chooser, seed=seed, q=int(q), n_init=n_init, surrogate=scfg)
     if carry:
         fp["carried"] = _carried_fingerprint(carry)
     jr = Journal(journal, fp) if journal is not None else None
     try:
-        out = run(objective, decoder, grid, proposer, Budget(n_target, time_budget, n_init, int(q)), journal=jr,
-                  progress=progress, label=f"identify[{method}]",
-                  after_batch=_callback_hook(callback if posterior is not None else None, objective, grid, pcfg, seed),
-                  carried=tuple(carry))
+        out = run(objective, decoder, grid, chooser, Budget(n_target, time_budget, n_init, int(q)), journal=jr,
+                  progress=progress, label=f"identify[{_label(chooser)}]",
+                  after_batch=_callback_hook(callback, objective, grid, pcfg, seed), carried=tuple(carry))
     finally:
         if jr is not None:
             jr.close()
-    return _result(objective, decoder, grid, out, space=space, config=fp, pcfg=pcfg if posterior else None,
-                   scfg=scfg, impute_failed=impute_failed, seed=seed, vcfg=verdict_config,
-                   extra={"budget": budget, "time_budget": time_budget})
+    return _result(objective, decoder, grid, out, space=space, config=fp, pcfg=pcfg, scfg=scfg, seed=seed,
+                   vcfg=verdict_config, extra={"budget": budget, "time_budget": time_budget})
+
+
+def _label(proposer: Proposer) -> str:
+    """The progress bar's name of a proposer: its config's ``kind``, else its class name."""
+    kind = proposer.config().get("kind")
+    return str(kind) if kind else type(proposer).__name__
 
 
 def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: DriverResult, *, space: ParameterSpace,
-            config: dict[str, Any], pcfg: PosteriorConfig | None, scfg: SurrogateConfig, impute_failed: bool,
+            config: dict[str, Any], pcfg: PosteriorConfig | None, scfg: SurrogateConfig,
             seed: int, extra: dict[str, Any], vcfg: VerdictConfig | None = None) -> IdentificationResult:
     """The IdentificationResult of the driver's records: best θ, history and (with ``pcfg``) the Belief."""
     records = out.records
@@ -307,7 +322,7 @@ def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: Dri
                               coords={"parameter": list(space.names), "unit": ("parameter", list(space.units))})
     belief = None
     if pcfg is not None:
-        model = fit_surrogate(records, grid, scfg, impute_failed=impute_failed)
+        model = fit_surrogate(records, grid, scfg)
         if model is None:
             raise ObjectiveError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
         belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=seed,

@@ -27,8 +27,8 @@ transform finite at the best point and is scale-equivariant.
 Prediction (``predict``, the cost of the acquisition on large grids) factorizes K = L L^T once per
 fitted model and evaluates the n x cells cross-covariance in cache-sized chunks with one matrix
 product for the distances and one triangular solve; it equals pyro's ``GPRegression.forward`` to
-rounding, in float64 (float32 cross-covariances were tried: the variance near the data, a
-difference of two nearly equal numbers, lost most of its digits).
+rounding, in float64 (in float32 the variance near the data, a difference of two nearly equal
+numbers, loses most of its digits).
 """
 from __future__ import annotations
 
@@ -58,8 +58,9 @@ class SurrogateConfig:
     median excess error; ``max_iter``: L-BFGS iterations; ``jitter``/``max_jitter``: diagonal
     added to K (raised x10 on Cholesky failure); ``noise_init``: initial noise in standardized
     units; ``chunk_size``: cells per prediction chunk (512 keeps the chunk x n work buffers of
-    :meth:`GPSurrogate.predict` in cache; at 11^5 cells and n = 200 it beat 256, 1024 and 2048 in
-    an interleaved comparison, values equal to rounding); ``num_threads``: torch threads.
+    :meth:`GPSurrogate.predict` in cache; the results do not depend on it); ``num_threads``: torch threads;
+    ``impute_failed``: give failed evaluations the worst observed error instead of leaving them out
+    of the fit (pushes the search away from them).
     """
 
     log_transform: bool = True
@@ -70,8 +71,11 @@ class SurrogateConfig:
     noise_init: float = 1e-4
     chunk_size: int = 512
     num_threads: int = 1
+    impute_failed: bool = False
 
     def __post_init__(self) -> None:
+        if not isinstance(self.impute_failed, bool):
+            raise BeliefError(f"SurrogateConfig.impute_failed must be True or False, got {self.impute_failed!r}.")
         if not (np.isfinite(self.log_offset) and self.log_offset > 0):
             raise BeliefError(f"SurrogateConfig.log_offset must be a positive number, got {self.log_offset!r}.")
         if not isinstance(self.max_iter, int) or self.max_iter < 1:

@@ -1,66 +1,67 @@
-"""Verdicts per parameter: identified, weakly identified or not identified, each with its reason.
+"""Verdicts per parameter: identified, weakly identified or not identified, each with the rule that
+decided it and its reason.
 
 A narrow marginal is necessary but not sufficient. Under model error, or with a budget too small
 for the dimension, P can be narrow in the wrong place (the GP's lower tail on cells nobody
 evaluated, or a minimum of E that model error moved away from the truth). The verdict of
-parameter j therefore combines these pieces of evidence:
+parameter j therefore combines the checks below, each a named rule (:data:`RULES`); every reason
+starts with the name of the rule that decided it ("narrowing: std is 17 % of the prior's ...",
+:func:`rule_of`), and ``Belief.rules`` lists them.
 
-1. **Narrowing**: ratio_j = std_j / prior_std_j of the marginal of P.
-   ratio >= ``weak_ratio`` -> not identified; ``identified_ratio`` <= ratio < ``weak_ratio`` ->
-   weakly identified.
-2. **Consistency between segments** (time windows, trajectories): each segment s has its own
-   posterior P_s (same evaluations, its own part of E). If two segments both narrow θ_j
-   (ratio < ``identified_ratio``) and their ``level`` credible intervals are disjoint, the best
-   value of θ_j moves with the data by more than its interval: model error, not information.
-   -> not identified. (Two independent 90 % intervals of a correct model are disjoint with
-   probability ~2 %.)
-3. **Verified mass**: the GP knows the log-likelihood ℓ = −E/(2σ²) of a cell to within
-   sd_ℓ ≈ |dℓ/dt| s (delta method on the GP's t = log(E − shift) or t = E, predictive sd s).
-   The verified mass is Σ P over cells with sd_ℓ <= ``max_loglik_sd`` nats. Below
-   ``min_verified_mass``, P rests on the GP's guesses -> at most weakly identified.
-4. **Evaluated support**: the best evaluated θ_j must lie inside the credible interval of θ_j,
-   otherwise P contradicts the evaluations -> not identified, whatever the narrowing (a weakly
-   identified interval that excludes the best evaluation is as wrong as an identified one). The
-   likelihood's evaluated floor (:mod:`belief.posterior`) keeps every cell at or below the best
-   evaluation's weight, so this fires only when P spreads over many cells nobody evaluated on one
-   side of the best (the best cell then holds less than (1 − level)/2 of P: a cell holding more
-   lies inside every marginal interval).
+- **reach** (checked first): reach_j = prior_std_j / (width_j / √12), the spread of θ_j over the
+  decoded cells relative to a uniform spread over its box. A decoder that varies θ_j over only a
+  sliver of the box (reach < ``min_reach``: a trained decoder's narrow image, a direction the
+  embedding dropped) never tried the other values, so a narrow P there says nothing about the
+  truth -> not identified.
+- **narrowing**: ratio_j = std_j / prior_std_j of the marginal of P.
+  ratio >= ``weak_ratio`` -> not identified; ``identified_ratio`` <= ratio < ``weak_ratio`` ->
+  weakly identified.
+- **local width** (when the objective gives residuals): r and its Jacobian J at the best
+  evaluated θ̂ give the local posterior std over all D parameters, sqrt diag (JᵀJ/σ²)⁻¹ in the
+  unit box, divided by the box's uniform std 1/√12. When larger than P's ratio it replaces it in
+  every rule that reads the narrowing: a decoder that holds fixed a direction trading off with θ_j
+  (μ in S = J²/(2 m² μ), with m searched) makes P narrow in θ_j; the full-space ratio is not.
+- **segment consistency** (time windows, trajectories): each segment s has its own posterior P_s
+  (same evaluations, its own part of E). If two segments both narrow θ_j (ratio <
+  ``identified_ratio``) and their ``level`` credible intervals are disjoint, the best value of θ_j
+  moves with the data by more than its interval: model error, not information -> not identified.
+  (Two independent 90 % intervals of a correct model are disjoint with probability ~2 %.)
+- **verified mass**: the GP knows the log-likelihood ℓ = −E/(2σ²) of a cell to within
+  sd_ℓ ≈ |dℓ/dt| s (delta method on the GP's t = log(E − shift) or t = E, predictive sd s). The
+  verified mass is Σ P over cells with sd_ℓ <= ``max_loglik_sd`` nats. Below
+  ``min_verified_mass``, P rests on the GP's guesses -> at most weakly identified.
+- **evaluated support**: the best evaluated θ_j must lie inside the credible interval of θ_j,
+  otherwise P contradicts the evaluations -> not identified, whatever the narrowing (a weakly
+  identified interval that excludes the best evaluation is as wrong as an identified one). The
+  likelihood's evaluated floor (:mod:`belief.posterior`) keeps every cell at or below the best
+  evaluation's weight, so this fires only when P spreads over many cells nobody evaluated on one
+  side of the best (the best cell then holds less than (1 − level)/2 of P: a cell holding more
+  lies inside every marginal interval).
+- **local refit** (when the objective gives residuals, and some parameter would otherwise be
+  identified or weakly identified): one damped Gauss-Newton step from θ̂ to θ′
+  (:func:`belief.least_squares.gauss_newton_step`, D + 4 evaluations; the same step gives the
+  local width). If it lowers E by more than ``refit_nats`` nats, (E(θ̂) − E(θ′)) / (2σ²) >
+  refit_nats, or by more than the fraction ``refit_fraction`` of E(θ̂) (minimizer mode: by more
+  than 1 % of E(θ̂)), the data prefer a θ′ that P never weighed: the search stopped short of the
+  best fit (a decoder whose image misses it, a budget too small for the dimension). A parameter
+  whose θ′_j lies outside its interval -> not identified. The fraction is needed because σ²
+  estimated from the residuals at θ̂ counts as noise the very misfit the step removes: then
+  E(θ̂)/(2σ²) is about n_eff/2, and with few effective observations (noiseless data, a search
+  short of the truth) no gain can reach ``refit_nats``.
+- **at bound** (model inadequacy, :mod:`belief.bounds`): the fitted θ (θ′ of the local refit when
+  the step moved, else θ̂) within ``bound_tolerance`` x width of a bound of the box, in a
+  parameter the data narrow (narrowing or local width below ``weak_ratio``) -> not identified:
+  the fit would leave the box, so the value is the bound, not an estimate. A parameter the data do
+  not narrow can sit on the edge by chance (in 15-D about a quarter of uniform points have some
+  coordinate within 1 % of a bound; a clipping decoder such as REMBO puts many cells there) and is
+  not identified by the narrowing already. The pinned parameters are listed in the Belief
+  (``Belief.at_bounds``) and its summary.
 
-0. **Reach** (checked first): reach_j = prior_std_j / (width_j / √12), the spread of θ_j over the
-   decoded cells relative to a uniform spread over its box. A decoder that varies θ_j over only a
-   sliver of the box (reach < ``min_reach``: a trained decoder's narrow image, a direction the
-   embedding dropped) never tried the other values, so a narrow P there says nothing about the
-   truth -> not identified.
-
-5. **Local fit over all D parameters** (when the objective gives residuals): r and its Jacobian
-   J at the best evaluated θ̂, and one damped Gauss-Newton step to θ′
-   (:func:`belief.least_squares.gauss_newton_step`, D + 4 evaluations). Run only when some
-   parameter would otherwise be identified or weakly identified.
-   (a) If the step lowers E by more than ``refit_nats`` nats, (E(θ̂) − E(θ′)) / (2σ²) >
-   refit_nats, or by more than the fraction ``refit_fraction`` of E(θ̂) (minimizer mode: by more
-   than 1 % of E(θ̂)), the data prefer a θ′ that P never weighed: the search stopped short of the
-   best fit (a decoder whose image misses it, a budget too small for the dimension). A parameter
-   whose θ′_j lies outside its interval -> not identified. The fraction is needed because σ²
-   estimated from the residuals at θ̂ counts as noise the very misfit the step removes: then
-   E(θ̂)/(2σ²) is about n_eff/2, and with few effective observations (noiseless data, a search
-   short of the truth) no gain can reach ``refit_nats``.
-   (b) The local posterior std over all parameters, sqrt diag (JᵀJ/σ²)⁻¹ in the unit box,
-   divided by the box's uniform std 1/√12, enters rule 1 when larger than P's ratio. A decoder
-   that holds fixed a direction trading off with θ_j (μ in S = J²/(2 m² μ), with m searched)
-   makes P narrow in θ_j; the full-space ratio is not.
-
-6. **At a bound** (model inadequacy, :mod:`belief.bounds`): the fitted θ (θ′ of rule 5 when the
-   local step moved, else the best evaluation θ̂) within ``bound_tolerance`` x width of a bound of
-   the box, in a parameter the data narrow (the ratio of rules 1 and 5b below ``weak_ratio``) ->
-   not identified: the fit would leave the box, so the value is the bound, not an estimate. A
-   parameter the data do not narrow can sit on the edge by chance (in 15-D about a quarter of
-   uniform points have some coordinate within 1 % of a bound; a clipping decoder such as REMBO
-   puts many cells there) and is not identified by rule 1 already. The pinned parameters are
-   listed in the Belief (``Belief.at_bounds``) and its summary.
-
-Only a parameter that passes all of them is *identified*. The budget rule of thumb for a GP in d
-dimensions, n >= 10 d evaluations (Loeppky, Sacks & Welch 2009), is reported as a warning with the
-numbers when it is not met.
+Only a parameter that passes all of them is *identified*. The order of precedence when several
+fire (:func:`decide`): reach; segment consistency, local refit and at bound (the ``conflicts``);
+narrowing; evaluated support; narrowing again for "weakly"; verified mass. The budget rule of
+thumb for a GP in d dimensions, n >= 10 d evaluations (Loeppky, Sacks & Welch 2009), is reported
+as a warning with the numbers when it is not met.
 """
 from __future__ import annotations
 
@@ -73,10 +74,37 @@ import xarray as xr
 from belief.bounds import AT_BOUND_TOLERANCE, AtBound
 from belief.errors import BeliefError
 
-__all__ = ["VERDICTS", "VerdictConfig", "reach_reason", "default_verdicts", "loglik_sd", "verified_mass",
-           "segment_conflicts", "refit_conflicts", "pinned", "unsupported", "trust_note", "decide", "budget_warning"]
+__all__ = ["VERDICTS", "RULES", "because", "rule_of", "VerdictConfig", "reach_reason", "default_verdicts",
+           "loglik_sd", "verified_mass", "segment_conflicts", "refit_conflicts", "pinned", "unsupported", "trust_note",
+           "decide", "budget_warning"]
 
 VERDICTS = ("identified", "weakly identified", "not identified")
+
+#: the verdict rules in the module docstring's order: name -> what it checks
+RULES: dict[str, str] = {
+    "reach": "the decoder varies the parameter over enough of its box to have tried other values",
+    "narrowing": "P's std over the prior's std, against identified_ratio and weak_ratio",
+    "local width": "the local posterior std over all parameters, when wider than P's",
+    "segment consistency": "segments that each narrow the parameter agree on its interval",
+    "verified mass": "how much of P lies on cells whose likelihood the GP knows",
+    "evaluated support": "the interval holds the best evaluated value",
+    "local refit": "a Gauss-Newton step from the best evaluation stays inside the interval",
+    "at bound": "the fitted value is not pinned at a bound of the box",
+}
+
+
+def because(rule: str, text: str) -> str:
+    """The reason ``"<rule>: <text>"`` of a verdict decided by ``rule`` (a key of :data:`RULES`)."""
+    if rule not in RULES:
+        raise BeliefError(f"unknown verdict rule {rule!r}; the rules are {list(RULES)}.")
+    return f"{rule}: {text}"
+
+
+def rule_of(reason: str) -> str:
+    """The rule that decided a verdict, read from its reason (:func:`because`), or "" for a reason
+    that names none (a Belief built by hand)."""
+    head = reason.split(":", 1)[0]
+    return head if head in RULES and ":" in reason else ""
 
 
 @dataclass(frozen=True)
@@ -97,7 +125,7 @@ class VerdictConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.bound_tolerance, (int, float)) and 0 <= self.bound_tolerance < 0.5):
             raise BeliefError(f"VerdictConfig.bound_tolerance must be a fraction of the box width in [0, 0.5) "
-                              f"(rule 6), got {self.bound_tolerance!r}.")
+                              f"(the 'at bound' rule), got {self.bound_tolerance!r}.")
         if not (np.isfinite(self.refit_nats) and self.refit_nats > 0):
             raise BeliefError(f"VerdictConfig.refit_nats must be a positive number of nats, got {self.refit_nats!r}.")
         if not (np.isfinite(self.refit_fraction) and 0 < self.refit_fraction < 1):
@@ -119,9 +147,9 @@ class VerdictConfig:
 
 
 def reach_reason(reach: float) -> str:
-    """Why a parameter the decoder barely varies is not identified (rule 0)."""
-    return (f"the decoder varies it over {reach:.0%} of a uniform spread over its box: values outside its image "
-            f"were never tried, so P cannot place the truth")
+    """Why a parameter the decoder barely varies is not identified (the "reach" rule)."""
+    return because("reach", f"the decoder varies it over {reach:.0%} of a uniform spread over its box: values "
+                            "outside its image were never tried, so P cannot place the truth")
 
 
 def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
@@ -130,7 +158,7 @@ def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
     ratio < 0.5 -> identified, ratio < 0.8 -> weakly identified, else not identified (the default
     :class:`~belief.verdicts.VerdictConfig` thresholds, without its evidence checks). A parameter
     the decoder does not vary over the cells (prior_std = 0), or over less than ``min_reach`` of its
-    box (``reach``, :mod:`belief.verdicts` rule 0), is not identified.
+    box (the "reach" rule of :mod:`belief.verdicts`), is not identified.
     """
     cfg = VerdictConfig()
     verdicts, reasons = [], []
@@ -138,7 +166,8 @@ def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
     for std, prior, spread in zip(marg["std"].values, marg["prior_std"].values, reach, strict=True):
         if not prior > 0:
             verdicts.append(VERDICTS[2])
-            reasons.append("the decoder does not vary it over the cells (prior std 0): P says nothing about it")
+            reasons.append(because("reach", "the decoder does not vary it over the cells (prior std 0): P says "
+                                   "nothing about it"))
             continue
         if spread < cfg.min_reach:
             verdicts.append(VERDICTS[2])
@@ -146,8 +175,9 @@ def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
             continue
         r = float(std / prior)
         verdicts.append(VERDICTS[0] if r < cfg.identified_ratio else VERDICTS[1] if r < cfg.weak_ratio else VERDICTS[2])
-        reasons.append(f"std is {r:.0%} of the prior's (std/prior_std = {r:.3g}; from P alone: identified below "
-                       f"{cfg.identified_ratio:g}, weakly identified below {cfg.weak_ratio:g})")
+        reasons.append(because("narrowing", (
+            f"std is {r:.0%} of the prior's (std/prior_std = {r:.3g}; from P alone: identified below "
+            f"{cfg.identified_ratio:g}, weakly identified below {cfg.weak_ratio:g})")))
     return verdicts, reasons
 
 
@@ -193,15 +223,15 @@ def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified
             for name in ma["parameter"].values[(narrow & apart).values]:
                 key = str(name)
                 if key not in out:
-                    out[key] = (f"its best value moves between segments: {a} gives {_interval(ma, key)}, "
-                                f"{b} gives {_interval(mb, key)}")
+                    out[key] = because("segment consistency", f"its best value moves between segments: {a} "
+                                       f"gives {_interval(ma, key)}, {b} gives {_interval(mb, key)}")
     return out
 
 
 def refit_conflicts(marginals: xr.Dataset, theta: np.ndarray | Sequence[float], error: float, start_error: float, *,
                     noise_var: float | None, nats: float,
                     fraction: float = VerdictConfig.refit_fraction) -> dict[str, str]:
-    """Parameters whose interval excludes a significantly better local fit θ′ (module docstring, rule 5a).
+    """Parameters whose interval excludes a significantly better local fit θ′ (the "local refit" rule).
 
     ``theta``: θ′ (D,); ``error``, ``start_error``: E(θ′) and E(θ̂); ``noise_var``: σ² of the
     likelihood (None in minimizer mode); significant: a gain above ``nats`` or above ``fraction``
@@ -221,17 +251,18 @@ def refit_conflicts(marginals: xr.Dataset, theta: np.ndarray | Sequence[float], 
         lo, hi, v = float(marginals["lower"].values[j]), float(marginals["upper"].values[j]), float(theta[j])
         tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
         if not (lo - tol <= v <= hi + tol):
-            out[name] = (f"a Gauss-Newton step from the best evaluation lowers E from {start_error:.4g} to "
-                         f"{error:.4g} ({how}) at {v:.4g}, outside the interval [{lo:.4g}, {hi:.4g}]: the search "
-                         "stopped short of the best fit, so P is narrow in the wrong place")
+            out[name] = because("local refit", (
+                f"a Gauss-Newton step from the best evaluation lowers E from {start_error:.4g} to {error:.4g} ({how}) "
+                f"at {v:.4g}, outside the interval [{lo:.4g}, {hi:.4g}]: the search stopped short of the best fit, "
+                "so P is narrow in the wrong place"))
     return out
 
 
 def pinned(marginals: xr.Dataset, found: Sequence[AtBound], *, weak_ratio: float,
            local_ratio: np.ndarray | Sequence[float] | None = None) -> tuple[AtBound, ...]:
     """The entries of ``found`` (belief.bounds.at_bounds of the fitted θ) whose parameter the data
-    narrow (module docstring, rule 6): ratio < ``weak_ratio``, the ratio being the larger of
-    std / prior_std in ``marginals`` and ``local_ratio`` (D,) of rule 5b when given."""
+    narrow (the "at bound" rule): ratio < ``weak_ratio``, the ratio being the larger of
+    std / prior_std in ``marginals`` and ``local_ratio`` (D,) of the "local width" rule when given."""
     names = [str(n) for n in marginals["parameter"].values]
     local = np.zeros(len(names)) if local_ratio is None else np.asarray(local_ratio, dtype=float)
     narrow = {n for j, n in enumerate(names)
@@ -251,7 +282,7 @@ def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
 
 
 def unsupported(marginals: xr.Dataset, best_theta: np.ndarray | Sequence[float]) -> dict[str, str]:
-    """Parameters whose credible interval excludes the best evaluated θ (module docstring, rule 4).
+    """Parameters whose credible interval excludes the best evaluated θ (the "evaluated support" rule).
 
     ``marginals``: Dataset with ``lower``, ``upper`` over ``parameter``; ``best_theta``: θ̂ (D,).
     Returns parameter -> reason (only the contradicted ones; a relative tolerance of 1e-9).
@@ -262,37 +293,41 @@ def unsupported(marginals: xr.Dataset, best_theta: np.ndarray | Sequence[float])
         lo, hi = float(marginals["lower"].values[j]), float(marginals["upper"].values[j])
         tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
         if not (lo - tol <= best[j] <= hi + tol):
-            out[name] = (f"P contradicts its evaluations: the best evaluated value {best[j]:.4g} lies outside the "
-                         f"interval [{lo:.4g}, {hi:.4g}], so P's mass rests on cells nobody evaluated")
+            out[name] = because("evaluated support", (
+                f"P contradicts its evaluations: the best evaluated value {best[j]:.4g} lies outside the interval "
+                f"[{lo:.4g}, {hi:.4g}], so P's mass rests on cells nobody evaluated"))
     return out
 
 
-def _sharp_verdict(vmass: float, cfg: VerdictConfig, ratio: float) -> tuple[str, str]:
+def _sharp_verdict(vmass: float, cfg: VerdictConfig, ratio: float, rule: str) -> tuple[str, str]:
+    """The verdict of a parameter narrowed below ``identified_ratio``: the "verified mass" rule caps it."""
     if vmass < cfg.min_verified_mass:
-        return "weakly identified", (f"std is {ratio:.0%} of the prior's, but only {vmass:.0%} of P's mass lies on "
-                                     f"cells whose likelihood the GP knows to {cfg.max_loglik_sd:g} nat: the "
-                                     "interval rests on cells nobody evaluated")
-    return "identified", (f"std is {ratio:.0%} of the prior's; {vmass:.0%} of P's mass verified by the GP; "
-                          "the best evaluated value lies inside the interval")
+        return "weakly identified", because("verified mass", (
+            f"std is {ratio:.0%} of the prior's, but only {vmass:.0%} of P's mass lies on cells whose likelihood "
+            f"the GP knows to {cfg.max_loglik_sd:g} nat: the interval rests on cells nobody evaluated"))
+    return "identified", because(rule, f"std is {ratio:.0%} of the prior's; {vmass:.0%} of P's mass verified by the "
+                                       "GP; the best evaluated value lies inside the interval")
 
 
-def _ratio(marg: xr.Dataset, j: int, local: float) -> tuple[float, str]:
-    """(narrowing ratio, note): the larger of P's std/prior_std and the local ratio (rule 5b)."""
+def _ratio(marg: xr.Dataset, j: int, local: float) -> tuple[float, str, str]:
+    """(narrowing ratio, rule, note): the larger of P's std/prior_std ("narrowing") and the local
+    ratio ("local width"), with a note when the local one is larger."""
     ratio = float(marg["std"].values[j] / max(float(marg["prior_std"].values[j]), 1e-300))
     if local <= ratio:
-        return ratio, ""
-    return local, (f" (P alone gives {ratio:.0%}, but the local information over all parameters leaves "
+        return ratio, "narrowing", ""
+    return local, "local width", (f" (P alone gives {ratio:.0%}, but the local information over all parameters leaves "
                    f"{local:.0%} of the box's std: the decoder holds fixed what trades off with it)")
 
 
 def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: np.ndarray | Sequence[float],
                verified: float, best_mass: float, config: VerdictConfig | None = None,
                local_ratio: np.ndarray | Sequence[float] | None = None) -> str:
-    """Why P cannot be trusted, for the summary, or "" when it can (module docstring, rules 3-4).
+    """Why P cannot be trusted, for the summary, or "" when it can (the "evaluated support" and
+    "verified mass" rules).
 
-    Said when some parameter the data narrow (ratio < ``weak_ratio``, rules 1 and 5b) has an interval
-    that excludes the best evaluated θ (rule 4), or when P's ``verified`` mass is below
-    ``min_verified_mass`` (rule 3) while some parameter is still (weakly) identified.
+    Said when some parameter the data narrow (ratio < ``weak_ratio``, "narrowing" or "local width")
+    has an interval that excludes the best evaluated θ, or when P's ``verified`` mass is below
+    ``min_verified_mass`` while some parameter is still (weakly) identified.
     ``verdicts``: one per parameter (from :func:`decide`); ``best_mass``: P of the best evaluated cell.
     """
     cfg = config or VerdictConfig()
@@ -316,13 +351,14 @@ def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: np
 def decide(marginals: xr.Dataset, *, best_theta: np.ndarray | Sequence[float], verified: float,
            conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None,
            local_ratio: np.ndarray | Sequence[float] | None = None) -> tuple[list[str], list[str]]:
-    """(verdicts, reasons), one per parameter of ``marginals`` (module docstring, rules 0-5; rule 6 enters
-    through ``conflicts``; rule 4, :func:`unsupported`, applies to every parameter the data narrow).
+    """(verdicts, reasons), one per parameter of ``marginals`` (module docstring; "segment consistency",
+    "local refit" and "at bound" enter through ``conflicts``; "evaluated support",
+    :func:`unsupported`, applies to every parameter the data narrow). Every reason names its rule.
 
     ``best_theta``: θ of the best evaluation (D,); ``verified``: P's verified mass in [0, 1];
-    ``conflicts``: parameter -> reason, from :func:`segment_conflicts`, :func:`refit_conflicts` or
-    rule 6 (:meth:`belief.bounds.AtBound.reason` of :func:`pinned`);
-    ``local_ratio``: (D,) local posterior std over the box's uniform std (rule 5b), or None.
+    ``conflicts``: parameter -> reason (:func:`because`), from :func:`segment_conflicts`,
+    :func:`refit_conflicts` or the "at bound" rule (:meth:`belief.bounds.AtBound.reason` of :func:`pinned`);
+    ``local_ratio``: (D,) local posterior std over the box's uniform std ("local width"), or None.
     """
     cfg = config or VerdictConfig()
     best = np.asarray(best_theta, dtype=float)
@@ -335,19 +371,19 @@ def decide(marginals: xr.Dataset, *, best_theta: np.ndarray | Sequence[float], v
     verdicts, reasons = [], []
     reach = marginals["reach"].values if "reach" in marginals else np.ones(len(names))
     for j, name in enumerate(names):
-        ratio, note = _ratio(marginals, j, float(local[j]))
+        ratio, rule, note = _ratio(marginals, j, float(local[j]))
         if reach[j] < cfg.min_reach:
             v, why = "not identified", reach_reason(float(reach[j]))
         elif name in conflicts:
             v, why = "not identified", conflicts[name]
         elif ratio >= cfg.weak_ratio:
-            v, why = "not identified", f"std is {ratio:.0%} of the prior's: the data barely narrow it"
+            v, why = "not identified", because(rule, f"std is {ratio:.0%} of the prior's: the data barely narrow it")
         elif name in contradicted:
             v, why = "not identified", f"{contradicted[name]} (std is {ratio:.0%} of the prior's)"
         elif ratio >= cfg.identified_ratio:
-            v, why = "weakly identified", f"std is {ratio:.0%} of the prior's"
+            v, why = "weakly identified", because(rule, f"std is {ratio:.0%} of the prior's")
         else:
-            v, why = _sharp_verdict(verified, cfg, ratio)
+            v, why = _sharp_verdict(verified, cfg, ratio, rule)
         verdicts.append(v)
         reasons.append(why + note)
     return verdicts, reasons

@@ -101,7 +101,7 @@ def identify_problem(seed: int, scenario: str, budgets: list[int], *, rule: str 
         journal = os.path.join(tmp, "run.sqlite")
         for budget in sorted(budgets, reverse=True):
             res = identify(objective, decoder, grid, budget=budget, seed=seed, journal=journal, progress=False,
-                           posterior_config=cfg)
+                           posterior=cfg)
             m = res.belief.marginals()
             out[budget] = Outcome(theta, m["lower"].values, m["upper"].values, [str(v) for v in m["verdict"].values],
                                   m["std"].values < 0.5 * m["prior_std"].values, np.asarray(res.best_theta.values))

@@ -37,7 +37,7 @@ class Recorder:
     """The objective contract, delegated to ``inner``, logging every evaluation in ``log``.
 
     Residual evaluations (``residuals_batch``) are logged only while ``count_residuals`` is set:
-    belief methods spend them on verdict rule 5 after their search (the verdict's cost, not the
+    belief methods spend them on the local refit verdict rule after their search (the verdict's cost, not the
     search's, and the same for every belief method), ``ae-cf-bo-gn`` on its counted step.
     """
 

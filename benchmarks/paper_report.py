@@ -170,7 +170,7 @@ def _verdict_table(rows: list[dict[str, Any]], methods: list[str]) -> None:
 def _stale(rows: list[dict[str, Any]]) -> int:
     """Rows whose stored ``local_fit`` (θ′, E(θ′), E(θ̂)) removes more than ``refit_fraction`` of E
     with θ′ outside the interval of a parameter not marked "not identified": 0 when every row's
-    verdicts are those of the current rule 5a."""
+    verdicts are those of the current local refit rule."""
     from belief.verdicts import VerdictConfig
 
     fraction, count = VerdictConfig().refit_fraction, 0

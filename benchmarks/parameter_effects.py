@@ -14,9 +14,10 @@ from physics import FlopController, ParameterSpace, TrajectoryObjective, simulat
 def main() -> list[tuple[str, float, float, float]]:
     space = ParameterSpace.t6()
     base = simulate(controller=FlopController(heading=0.0), duration=3.0)
-    one_step, rollout = TrajectoryObjective(base), TrajectoryObjective(base, horizon="rollout")
+    one_step = TrajectoryObjective(base, loss="norm")          # metres, the paper's Σ‖r‖, as quoted in docs/physics.md
+    rollout = TrajectoryObjective(base, horizon="rollout", loss="norm")
     e1, er = one_step(space.nominal), rollout(space.nominal)
-    no_velocities = TrajectoryObjective(base.drop_vars("velocities"))
+    no_velocities = TrajectoryObjective(base.drop_vars("velocities"), loss="norm")
     n1 = int(np.isfinite(one_step.per_sample(space.nominal)[0]).sum())
     n2 = int(np.isfinite(no_velocities.per_sample(space.nominal)[0]).sum())
     print(f"E(θ*) on its own noise-free data: one-step {e1:.4f} m over {n1} predictions, rollout {er:.4f} m; "

@@ -86,7 +86,7 @@ def main(repeats: int = 5) -> dict:
     # 2. one E(θ) evaluation on the default data (3 s flop at 100 Hz, one-step error)
     data = simulate(controller=FlopController(heading=0.0), duration=3.0)
     space = ParameterSpace.t6()
-    E = TrajectoryObjective(data, n_workers=2)
+    E = TrajectoryObjective(data, loss="norm", n_workers=2)
     thetas = space.sample(8, seed=0)
     E(thetas[0])
     figures["seconds_per_E"], _ = _median_time(lambda: E(thetas[1]), repeats)

@@ -75,7 +75,7 @@ def planning_runs(belief, theta: np.ndarray, seed: int, args: argparse.Namespace
         b = {"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)}.get(name, belief)
         robust = name not in POINT_PLANNERS
         run = plan_to_goal(b, SimulatedRobot(theta), goal, radius=args.radius, max_steps=args.steps, level=level,
-                           objective=args.objective, samples=args.samples, seed=seed, horizon=args.horizon,
+                           risk=args.risk, samples=args.samples, seed=seed, horizon=args.horizon,
                            learn=robust and args.learn, pool=pool, progress=False)
         out[name] = (bool(run.reached), len(run.steps), float(run.final_distance))
         if args.verbose:
@@ -126,7 +126,7 @@ def _print_tables(plans: list[dict], probes: list[dict], args: argparse.Namespac
 def _print_plans(plans: list[dict], args: argparse.Namespace) -> None:
     n = len(plans)
     print(f"\nPlanning to a goal {args.distance:g} m away (radius {args.radius:g} m, at most {args.steps} flops, "
-          f"K = {args.samples} draws, robust objective {args.objective}, "
+          f"K = {args.samples} draws, risk measure {args.risk}, "
           f"learning {'on' if args.learn else 'off'}, horizon {args.horizon}), "
           f"{n} seeds")
     print(f"{'planner':<16}{'reached':>10}{'rate':>7}{'mean flops':>12}{'mean final distance [m]':>26}")
@@ -152,7 +152,7 @@ def _print_probes(probes: list[dict], args: argparse.Namespace) -> None:
 
 def _settings_key(args: argparse.Namespace) -> dict:
     """The settings a journal row depends on (rows made with others are not reused)."""
-    names = ("distance", "radius", "steps", "samples", "levels", "robust_only", "objective", "horizon", "learn",
+    names = ("distance", "radius", "steps", "samples", "levels", "robust_only", "risk", "horizon", "learn",
              "cells", "probes", "entropy", "tolerance", "candidates", "budget")
     return {n: getattr(args, n) for n in names}
 
@@ -178,7 +178,7 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--levels", type=float, nargs="+", default=[0.5],
                    help="CVaR levels α: one robust planner per level (the nominal and MAP plans do not depend on it)")
     p.add_argument("--robust-only", action="store_true", help="skip the nominal and MAP plans")
-    p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
+    p.add_argument("--risk", choices=["cvar", "expected", "success"], default="cvar")
     p.add_argument("--horizon", type=int, choices=[1, 2], default=2, help="1: progress; 2: flops to go (lookahead)")
     p.add_argument("--no-learn", dest="learn", action="store_false",
                    help="the robust plan keeps P as loaded (default: re-weighs P by each executed flop)")

@@ -56,7 +56,7 @@ def _curves(space, ae, seeds: int, budget: int) -> dict[str, np.ndarray]:
         for name, (decoder, grid, method) in methods.items():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                result = identify(objective, decoder, grid, budget=budget, seed=seed, method=method, progress=False)
+                result = identify(objective, decoder, grid, budget=budget, seed=seed, proposer=method, progress=False)
             curves[name].append(np.minimum.accumulate(result.history["error"].values))
     return {name: np.array(c) for name, c in curves.items()}
 

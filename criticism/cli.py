@@ -6,13 +6,22 @@ pyproject.toml), so physics.cli does not import criticism.
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 from typing import Any
 
+from belief.errors import JournalError
+from belief.journal import run_with_journals
 from criticism.diagnose import DiagnoseConfig, diagnose
+from criticism.errors import CriticismError
 from criticism.report import diagnosis_text, write_report
 from physics.cli_check import preflight
 from physics.effects import EFFECT_TYPES
 from physics.errors import ParameterError
+from physics.outputs import check_output_dir, output_dir
+from physics.parameters import ParameterSpace
+from physics.predictor import dt_option
+from physics.prior_box import add_prior_box_options, box_changes, prior_box_from_args
 from physics.trajectory import describe_trajectory, load_trajectory
 
 __all__ = ["register_diagnose", "run_diagnose"]
@@ -26,7 +35,8 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
                     "held-out residual beyond re-tuning the model's own parameters, add the winner, re-identify, "
                     "and report the held-out error before and after (docs/diagnose.md).")
     p.add_argument("data", nargs="+", help="trajectory netCDF files (docs/data-format.md)")
-    p.add_argument("--out", required=True, help="output directory (report.txt, diagnosis.json, figures, journals)")
+    p.add_argument("--out", required=True,
+                   help="output directory (report.txt, diagnosis.json, figures, report.html, journals)")
     p.add_argument("--held-out", type=int, nargs="*", default=None,
                    help="indices of the trajectories held out for scoring (default: the last third, at least one)")
     p.add_argument("--effects", nargs="*", default=None,
@@ -39,15 +49,52 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--no-progress", action="store_true", help="hide progress bars")
     p.add_argument("--skip-checks", action="store_true",
                    help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the journals in OUT (an error when missing or of another problem); without it a "
+                        "journal of another problem is set aside (identify_pass0.1.sqlite) and the run starts afresh")
+    add_prior_box_options(p)
+    p.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                   help="physics step; must divide every file's sampling interval (default: per file, the largest "
+                        "step <= 1 ms that does; docs/data-format.md)")
     p.set_defaults(func=run_diagnose)
+
+
+def _note(text: str) -> None:
+    """One line on stderr, ``tensegrid diagnose: note: TEXT``."""
+    print(f"tensegrid diagnose: note: {text}", file=sys.stderr)
+
+
+def _check_prior_box(args: argparse.Namespace) -> None:
+    """Validate --nominal, --bounds and --params; a box other than the default is refused, not ignored:
+    criticism.diagnose identifies in the T6's default box (it takes no parameter space)."""
+    default = ParameterSpace.t6()
+    if box_changes(prior_box_from_args(args, default), default):
+        raise CriticismError("diagnose identifies in the default prior box only (criticism.diagnose takes no "
+                             "parameter space yet); drop --nominal/--bounds/--params, or use tensegrid identify.")
+
+
+def _before_run(args: argparse.Namespace, config: DiagnoseConfig) -> None:
+    """--resume needs the first pass's journal; a budget no larger than the first identification's
+    initial design (max(5, D + 1) Sobol points, belief.search) means BO never runs: say so."""
+    first = os.path.join(args.out, "identify_pass0.sqlite")
+    if args.resume and not os.path.exists(first):
+        raise JournalError(f"--resume: no journal at {first} to resume; run without --resume to start one.")
+    n_init = max(5, ParameterSpace.t6().dim + 1)
+    if config.budget <= n_init:
+        _note(f"--budget {config.budget} is no more than the initial design of {n_init} Sobol points of each "
+              f"identification: BO never runs; give --budget {n_init + 1} or more.")
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
     """Load and check the trajectory files (physics.checks), run :func:`~criticism.diagnose.diagnose`, print
-    and write the report (report.txt, diagnosis.json, figures) to ``--out``; returns the exit status 0."""
+    and write the report (report.txt, diagnosis.json, figures) to ``--out``; returns the exit status 0.
+    Nothing is written before the inputs are valid; a journal of another problem is set aside unless --resume."""
+    check_output_dir(args.out)
+    _check_prior_box(args)
     data = [load_trajectory(path) for path in args.data]
     if not getattr(args, "skip_checks", False):
         preflight(data, args.data, "diagnose")       # raises DataCheckError (exit 2) before any identification
+    options = dt_option(getattr(args, "dt", None), data, name="--dt")   # StepSizeError before any identification
     for path, ds in zip(args.data, data, strict=True):
         print(f"{path}: " + "; ".join(describe_trajectory(ds)))
     effects = None
@@ -58,9 +105,15 @@ def run_diagnose(args: argparse.Namespace) -> int:
         effects = [EFFECT_TYPES[name]() for name in args.effects]
     config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates,
                             horizon=args.horizon, seed=args.seed)
-    diagnosis = diagnose(data, held_out=args.held_out, effects=effects, config=config, journal_dir=args.out,
-                         progress=not args.no_progress)
+    _before_run(args, config)
+    with output_dir(args.out):          # removed again if the run fails before writing into it
+        diagnosis = run_with_journals(
+            lambda: diagnose(data, held_out=args.held_out, effects=effects, config=config, journal_dir=args.out,
+                             options=options, progress=not args.no_progress),
+            resume=args.resume, say=_note)
     print(diagnosis_text(diagnosis))
-    for path in write_report(diagnosis, data, args.out):
+    from criticism.html_report import write_diagnose_report
+
+    for path in [*write_report(diagnosis, data, args.out), write_diagnose_report(args.out, diagnosis, data, args)]:
         print(f"wrote {path}")
     return 0

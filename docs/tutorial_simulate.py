@@ -34,7 +34,7 @@ def main(quick: bool = False, out: str = "out/tutorial") -> dict:
     print(f"wrote {path} and {png}")
 
     # 5. The trajectory error E(θ): ~0 at the parameters that made the data, larger elsewhere.
-    E = TrajectoryObjective(data)
+    E = TrajectoryObjective(data, loss="norm")        # Σ‖r‖ in metres (the default is loss="squared")
     e_true = E(space.nominal)
     e_off = E(space.replace(pretension=0.95 * 150.0))
     print(f"E(θ_true) = {e_true:.4f} m, E(pretension -5 %) = {e_off:.4f} m")

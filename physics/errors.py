@@ -15,6 +15,10 @@ __all__ = [
     "PoolError",
     "ContractError",
     "NoResidualsError",
+    "TimestampError",
+    "StepSizeError",
+    "ImportFormatError",
+    "OutputError",
 ]
 
 
@@ -50,3 +54,22 @@ class ContractError(TensegridError, TypeError):
 class NoResidualsError(TensegridError, NotImplementedError):
     """The objective gives E(θ) but no residual vectors (a plain function θ -> E): what needs them
     (the "ess" noise rule, least-squares steps, model criticism) falls back or is skipped."""
+
+
+class TimestampError(TrajectoryFormatError):
+    """A trajectory's timestamps do not fit a regular clock: a timestamp further from its tick than
+    physics.trajectory.TIMESTAMP_TOLERANCE of the sample interval, or more ticks missing than present."""
+
+
+class StepSizeError(ParameterError, TrajectoryFormatError):
+    """A physics step dt that is not a positive step of at most 0.01 s or does not divide a trajectory's
+    sample interval Δ (Δ / dt must be a whole number of steps; physics.predictor.physics_step picks one)."""
+
+
+class ImportFormatError(TrajectoryFormatError):
+    """A file to convert into a trajectory (physics.importers: CSV) lacks the declared layout: a missing
+    column, a cell that is not a number, an unknown unit or up axis."""
+
+
+class OutputError(TensegridError, ValueError):
+    """An output path cannot be used: empty, an existing file where a folder is needed, or not writable."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from dataclasses import replace as replace_fields
 
 import numpy as np
 import xarray as xr
@@ -299,6 +300,23 @@ class ParameterSpace:
         return tuple(self.names) == tuple(other.names) and bool(
             np.allclose(self.lower, other.lower) and np.allclose(self.upper, other.upper))
 
+    def with_overrides(self, *, nominal: Mapping[str, float] | None = None,
+                       bounds: Mapping[str, tuple[float, float]] | None = None) -> ParameterSpace:
+        """This space with some parameters' nominal values and boxes replaced by name (SI), e.g. for a
+        robot built differently from the one the defaults describe.
+
+        A new ``nominal`` alone recentres the box keeping its relative half-widths (±10 % stays ±10 %;
+        a parameter whose nominal is 0, or whose sign would flip, is shifted instead); ``bounds`` alone
+        keep the nominal when it lies inside them, else the nominal becomes their midpoint; both
+        together must have lower <= nominal <= upper. Raises :class:`ParameterError` for an unknown
+        name, lower >= upper, a nominal outside its bounds or a non-physical value."""
+        nominal, bounds = dict(nominal or {}), dict(bounds or {})
+        unknown = sorted((set(nominal) | set(bounds)) - set(self.names))
+        if unknown:
+            raise ParameterError(f"unknown parameter(s) {unknown}; the known names are {', '.join(self.names)}.")
+        return ParameterSpace(tuple(_overridden(p, nominal.get(p.name), bounds.get(p.name))
+                                    for p in self.parameters))
+
     def replace(self, theta: np.ndarray | Mapping[str, float] | None = None, **values: float) -> np.ndarray:
         """θ with some parameters replaced by name (bounds not checked), e.g. ``replace(damping=0.0)``."""
         arr = self.as_array(theta, check_bounds=False).copy()
@@ -317,3 +335,35 @@ class ParameterSpace:
     @classmethod
     def from_parameters(cls, params: Iterable[Parameter]) -> ParameterSpace:
         return cls(tuple(params))
+
+
+def _overridden(p: Parameter, nominal: float | None, bounds: tuple[float, float] | None) -> Parameter:
+    """``p`` with a new nominal and/or box (:meth:`ParameterSpace.with_overrides`)."""
+    if nominal is None and bounds is None:
+        return p
+    if nominal is not None:
+        nominal = float(nominal)
+        if not np.isfinite(nominal) or not p._physical(nominal):
+            raise ParameterError(f"{p.name}: nominal {nominal!r} {p.unit} is not a physical value (it must be "
+                                 f"{'>' if p.strict else '>='} {p.minimum!r}); give a finite value in SI units.")
+    if bounds is not None:
+        lo, hi = (float(v) for v in bounds)
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            raise ParameterError(f"{p.name}: bounds must be finite numbers in {p.unit}, got {lo!r}:{hi!r}.")
+        if not lo < hi:
+            raise ParameterError(f"{p.name}: lower bound {lo!r} must be below upper bound {hi!r} {p.unit}; "
+                                 "swap them.")
+        if nominal is None:
+            nominal = p.nominal if lo <= p.nominal <= hi else 0.5 * (lo + hi)
+        elif not lo <= nominal <= hi:
+            raise ParameterError(f"{p.name}: nominal {nominal!r} lies outside its bounds [{lo!r}, {hi!r}] {p.unit}; "
+                                 "give a nominal inside the bounds or widen them.")
+    else:
+        assert nominal is not None
+        ratio = nominal / p.nominal if p.nominal != 0 else 0.0
+        lo, hi = ((p.lower * ratio, p.upper * ratio) if ratio > 0
+                  else (p.lower + nominal - p.nominal, p.upper + nominal - p.nominal))
+        if not p._physical(lo):
+            raise ParameterError(f"{p.name}: recentring the box on nominal {nominal!r} gives the non-physical lower "
+                                 f"bound {lo!r} {p.unit}; give this parameter's bounds too.")
+    return replace_fields(p, nominal=nominal, lower=lo, upper=hi)

@@ -3,6 +3,7 @@ of its centre of mass. DART's own viewer cannot render off-screen from the pip w
 from __future__ import annotations
 
 import os
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,12 +20,14 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
     from mpl_toolkits.mplot3d import Axes3D
 
-__all__ = ["draw_robot", "plot_trajectory", "plot_observed_vs_predicted"]
+__all__ = ["draw_robot", "plot_trajectory", "plot_observed_vs_predicted", "observed_vs_predicted_figure",
+           "centre_of_mass", "rollout_errors"]
 
 
-def _save(fig: Figure, path: str | os.PathLike[str]) -> Path:
-    """Lay out, write (creating the folder) and close a figure; returns the path."""
-    fig.tight_layout()
+def _save(fig: Figure, path: str | os.PathLike[str], *, layout: bool = True) -> Path:
+    """Lay out (unless the caller did), write (creating the folder) and close a figure; returns the path."""
+    if layout:
+        fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -85,36 +88,76 @@ def plot_trajectory(ds: xr.Dataset, path: str | os.PathLike[str], *, snapshots: 
     return _save(fig, path)
 
 
-def _nan_centre(nodes: np.ndarray) -> np.ndarray:
-    """Mean over nodes (T x 3), NaN where a sample has no node (no warning)."""
-    count = np.isfinite(nodes).sum(axis=1)
-    total = np.nansum(nodes, axis=1)
-    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+def centre_of_mass(nodes: np.ndarray) -> np.ndarray:
+    """Mean over nodes (``T x N x 3`` -> ``T x 3``) of the samples whose nodes are all finite, NaN for the
+    others: a sample with a dropped marker is a gap, not a jump of the centre toward the markers left."""
+    nodes = np.asarray(nodes, dtype=float)
+    complete = np.isfinite(nodes).all(axis=(1, 2))
+    out = np.full((nodes.shape[0], nodes.shape[2]), np.nan)
+    out[complete] = nodes[complete].mean(axis=1)
+    return out
 
 
-def plot_observed_vs_predicted(ds: xr.Dataset, predictions: dict[str, xr.DataArray], path: str | os.PathLike[str], *,
-                               title: str | None = None) -> Path:
-    """Save a figure of the observed centre of mass (x, y, z) against predictions (label -> nodes
-    DataArray (time, node, axis), e.g. from ``TrajectoryObjective(ds, horizon="rollout").predictions(θ)``),
-    with the per-sample node error ||x_i - x̂_i|| [m] below."""
+def _node_error(observed: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+    """||x - x̂|| over all nodes per sample [m] (``T``), NaN where either has a missing node."""
+    diff = np.asarray(predicted, dtype=float) - np.asarray(observed, dtype=float)
+    complete = np.isfinite(diff).all(axis=(1, 2))
+    out = np.full(diff.shape[0], np.nan)
+    out[complete] = np.sqrt((diff[complete] ** 2).sum(axis=(1, 2)))
+    return out
+
+
+def rollout_errors(ds: xr.Dataset, predictions: dict[str, xr.DataArray]) -> dict[str, float]:
+    """label -> RMS over the samples where observation and prediction are complete of ||x - x̂|| [m]
+    (NaN when there is none)."""
+    observed = ds["nodes"].transpose("time", "node", "axis").values
+    out = {}
+    for name, pred in predictions.items():
+        err = _node_error(observed, pred.transpose("time", "node", "axis").values)
+        err = err[np.isfinite(err)]
+        out[name] = float(np.sqrt(np.mean(err ** 2))) if err.size else float("nan")
+    return out
+
+
+def observed_vs_predicted_figure(ds: xr.Dataset, predictions: dict[str, xr.DataArray], *, title: str | None = None,
+                                 note: str = "") -> Figure:
+    """The figure of :func:`plot_observed_vs_predicted` (not saved; close it with ``plt.close``)."""
     observed = ds["nodes"].transpose("time", "node", "axis").values
     t = ds["time"].values
-    com = np.nanmean(observed, axis=1)
-    centre = {name: _nan_centre(pred.transpose("time", "node", "axis").values) for name, pred in predictions.items()}
+    com = centre_of_mass(observed)
+    centre = {name: centre_of_mass(pred.transpose("time", "node", "axis").values) for name, pred in predictions.items()}
+    rms = rollout_errors(ds, predictions)
     fig, axes = plt.subplots(4, 1, figsize=(8, 8.5), sharex=True)
     styles = ["--", ":", "-."]
     for k, label in enumerate("xyz"):
         axes[k].plot(t, com[:, k], color="k", lw=2.0, label="observed")
         for j, name in enumerate(predictions):
-            axes[k].plot(t, centre[name][:, k], styles[j % 3], lw=1.5, label=name)
+            axes[k].plot(t, centre[name][:, k], styles[j % 3], lw=1.5, label=f"{name} (RMS {rms[name]:.3g} m)")
         axes[k].set_ylabel(f"COM {label} [m]")
         axes[k].grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     for j, (name, pred) in enumerate(predictions.items()):
-        err = np.sqrt(((pred.transpose("time", "node", "axis").values - observed) ** 2).sum(axis=(1, 2)))
+        err = _node_error(observed, pred.transpose("time", "node", "axis").values)
         axes[3].semilogy(t, np.maximum(err, 1e-9), styles[j % 3], label=name)
     axes[3].set_ylabel("||x - x̂|| over nodes [m]")
     axes[3].set_xlabel("time [s]")
     axes[3].grid(alpha=0.3, which="both")
     fig.suptitle(title or "observed vs predicted")
-    return _save(fig, path)
+    if note:
+        wrapped = textwrap.fill(note, 105)
+        lines = wrapped.count("\n") + 1
+        fig.text(0.5, 1.0 - 0.45 / 8.5, wrapped, ha="center", va="top", fontsize=8.5, color="0.25")
+        fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - (0.3 + 0.15 * lines) / 8.5))
+    else:
+        fig.tight_layout()
+    return fig
+
+
+def plot_observed_vs_predicted(ds: xr.Dataset, predictions: dict[str, xr.DataArray], path: str | os.PathLike[str], *,
+                               title: str | None = None, note: str = "") -> Path:
+    """Save a figure of the observed centre of mass (x, y, z) against predictions (label -> nodes
+    DataArray (time, node, axis), e.g. from ``TrajectoryObjective(ds, horizon="rollout").predictions(θ)``),
+    each labelled with its RMS node error, and the per-sample node error ||x_i - x̂_i|| [m] below;
+    ``note`` is printed under the title (e.g. why one rollout drifts). Samples with a missing node are
+    gaps (:func:`centre_of_mass`)."""
+    return _save(observed_vs_predicted_figure(ds, predictions, title=title, note=note), path, layout=False)

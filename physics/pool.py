@@ -8,18 +8,63 @@ reused by later batches. Workers are a local cluster of single-threaded processe
 first use and kept until :meth:`DaskPool.close`, or an existing scheduler's ``address``. With
 ``n_workers=0`` and no address the pool runs the items serially in this process.
 
+A pool is quiet: the local cluster's HTTP server takes a free port (no "Port 8787 is already in
+use" when another cluster runs), and closing releases the scattered payload, then the client,
+then the cluster, with distributed's shutdown messages (workers leaving, scattered data lost,
+streams closed) silenced, since they are routine there. A pool left open is closed the same way
+at interpreter exit, before distributed's own exit handlers run.
+
 dask.distributed is imported only when a cluster is needed.
 """
 from __future__ import annotations
 
+import atexit
+import contextlib
+import logging
 import operator
 import weakref
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from physics.errors import ParameterError, PoolError
 
 __all__ = ["DaskPool", "map_serial"]
+
+
+_OPEN: weakref.WeakSet[DaskPool] = weakref.WeakSet()      # pools with a client, closed at exit
+_AT_EXIT: list[bool] = []                                      # whether _close_open_pools is registered
+
+
+@contextlib.contextmanager
+def _quiet_distributed() -> Iterator[None]:
+    """Raise every ``distributed`` logger of this process to CRITICAL for the duration (restored after):
+    what a shutdown logs (workers removed, scattered data lost, comms closed) is expected then."""
+    names = ["distributed", *(n for n in logging.root.manager.loggerDict if n.startswith("distributed."))]
+    loggers = [logging.getLogger(name) for name in names]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels, strict=True):
+            lg.setLevel(level)
+
+
+def _close_open_pools() -> None:
+    """At interpreter exit: close the pools still open, in an order distributed does not complain about."""
+    for pool in list(_OPEN):
+        with contextlib.suppress(Exception):
+            pool.close()
+
+
+def _close_at_exit(pool: DaskPool) -> None:
+    """Track ``pool`` for :func:`_close_open_pools`, registered once, after distributed is imported, so
+    that it runs before distributed's own exit handlers (atexit runs the last registered first)."""
+    _OPEN.add(pool)
+    if not _AT_EXIT:
+        atexit.register(_close_open_pools)
+        _AT_EXIT.append(True)
 
 
 def map_serial(fn: Callable[[Any, Any], Any], payload: Any, items: Sequence[Any],
@@ -75,7 +120,7 @@ class DaskPool:
             else:
                 try:
                     self._cluster = LocalCluster(n_workers=self.n_workers, threads_per_worker=1, processes=True,
-                                                 dashboard_address=None, silence_logs=40)
+                                                 dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
                 except RuntimeError as exc:
                     raise PoolError(
                         f"Could not start a local dask cluster of n_workers={self.n_workers} ({exc}). Worker "
@@ -83,6 +128,7 @@ class DaskPool:
                         "`if __name__ == \"__main__\":`, or evaluate serially with n_workers=0."
                     ) from exc
                 self._client = Client(self._cluster)
+            _close_at_exit(self)
             if self.warm_up is not None:
                 self._client.run(self.warm_up)
         return self._client
@@ -122,12 +168,21 @@ class DaskPool:
         return out
 
     def close(self) -> None:
-        """Disconnect, and shut down the local cluster if this pool started one."""
-        if self._client is not None:
-            self._client.close()
-        if self._cluster is not None:
-            self._cluster.close()
+        """Disconnect, and shut down the local cluster if this pool started one: the scattered payload is
+        released, then the client closed, then the cluster, with distributed's shutdown messages silenced."""
+        client, cluster, remote = self._client, self._cluster, self._remote
         self._client = self._cluster = self._remote = self._payload = None
+        _OPEN.discard(self)
+        if client is None and cluster is None:
+            return
+        with _quiet_distributed():
+            if remote is not None and client is not None:
+                with contextlib.suppress(Exception):
+                    client.cancel(remote)
+            if client is not None:
+                client.close()
+            if cluster is not None:
+                cluster.close()
 
     def __enter__(self) -> DaskPool:
         return self

@@ -16,24 +16,77 @@ The observed state at sample i is rebuilt in the simulator:
   or true rest lengths (``"true"``); with a command delay τ (physics.effects.ActuatorDelay) the
   commands of the last τ seconds are still on their way and are loaded into the model's delay line.
 
-Then the controls u_i are held for one observation interval Δ (``Δ / dt`` physics steps) and the
-node positions are read: f(x_i, u_i, θ) = x̂_{i+1}. Observations pass through the model's
-observation transform (physics.effects.SensorBias): the state is rebuilt from unobserve(x_i) and
-the prediction is observe(x̂).
+Then the controls u_i are held for one observation interval Δ (``Δ / dt`` physics steps, a whole
+number: :func:`physics_step` chooses dt to divide Δ) and the node positions are read:
+f(x_i, u_i, θ) = x̂_{i+1}. Observations pass through the model's observation transform
+(physics.effects.SensorBias): the state is rebuilt from unobserve(x_i) and the prediction is observe(x̂).
 """
 from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
 
 import numpy as np
 import xarray as xr
 
-from physics.errors import TrajectoryFormatError
+from physics.errors import StepSizeError, TrajectoryFormatError
 from physics.geometry import CABLE_NODES
-from physics.tensegrity import T6Model
+from physics.tensegrity import ModelOptions, T6Model
 
-__all__ = ["ObservedStates", "LENGTH_REFERENCES", "reconstruct_actuators", "actuator_states", "predict"]
+__all__ = ["ObservedStates", "LENGTH_REFERENCES", "reconstruct_actuators", "actuator_states", "predict",
+           "physics_step", "step_options", "dt_option"]
 
 #: What ``controls`` and ``rest_length`` mean: encoder readings zeroed at the nominal design, or true rest lengths.
 LENGTH_REFERENCES = ("encoder", "true")
+#: Relative slack in "Δ / dt is a whole number", for the rounding of Δ written as decimal seconds.
+_WHOLE = 1e-6
+
+
+def physics_step(interval: float, dt_max: float = ModelOptions.dt) -> float:
+    """The largest physics step dt <= dt_max [s] that divides the sample interval Δ [s] into whole steps:
+
+        n = ceil(Δ / dt_max),   dt = Δ / n
+
+    (100 Hz: 10 steps of 1 ms; 120 Hz: 9 of 0.926 ms; 200 Hz: 5 of 1 ms; 240 Hz: 5 of 0.833 ms).
+    dt_max (ModelOptions' default dt) bounds the integration error, so no step is longer; dt_max
+    itself is returned when it divides Δ within _WHOLE, so 100 Hz data keep exactly the default."""
+    ratio = interval / dt_max
+    n = max(1, math.ceil(ratio - _WHOLE * ratio))
+    return dt_max if abs(n - ratio) <= _WHOLE * ratio else interval / n
+
+
+def step_options(interval: float, options: ModelOptions | None = None, *, what: str = "the data") -> ModelOptions:
+    """Model options whose dt divides the sample interval Δ [s] of ``what``: ModelOptions(dt=physics_step(Δ))
+    when ``options`` is None, else ``options`` themselves once checked (:class:`StepSizeError` if Δ / dt is
+    not a whole number of steps)."""
+    if options is None:
+        return ModelOptions(dt=physics_step(interval))
+    steps = interval / options.dt
+    if round(steps) < 1 or abs(steps - round(steps)) > _WHOLE * max(1.0, steps):
+        raise StepSizeError(
+            f"{what}: the sampling interval {interval:.6g} s is not a whole number of physics steps dt = "
+            f"{options.dt:.6g} s ({steps:.4g} steps); use dt = interval / n for a whole n, e.g. "
+            f"{physics_step(interval, options.dt):.6g} s, or leave dt unset to have it chosen so.")
+    return options
+
+
+def dt_option(dt: float | None, datasets: Sequence[xr.Dataset], *, name: str = "dt",
+              options: ModelOptions | None = None) -> ModelOptions | None:
+    """``options`` (default ModelOptions()) with the physics step ``dt`` [s] given by the user (``name`` in
+    messages, e.g. ``--dt``), checked against every trajectory's sample interval; ``options`` unchanged
+    when dt is None (the step is then chosen per trajectory, :func:`physics_step`). Raises
+    :class:`StepSizeError` if dt is not in (0, 0.01] s or does not divide an interval."""
+    if dt is None:
+        return options
+    if not (math.isfinite(dt) and 0 < dt <= 0.01):
+        raise StepSizeError(f"{name} must be a physics step in (0, 0.01] s, got {dt!r}; leave it out to have "
+                            "it chosen from the sampling interval.")
+    chosen = dataclasses.replace(options or ModelOptions(), dt=float(dt))
+    for k, ds in enumerate(datasets):
+        time = np.asarray(ds["time"].values, dtype=float)
+        step_options(float(time[1] - time[0]), chosen, what=f"{name} {dt:g} s on trajectory {k}")
+    return chosen
 
 
 class ObservedStates:

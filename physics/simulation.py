@@ -17,6 +17,7 @@ from physics.controllers import Controller, HoldController
 from physics.effects.base import Effect, model_space
 from physics.errors import ParameterError
 from physics.parameters import ParameterSpace
+from physics.predictor import step_options
 from physics.tensegrity import ModelOptions, RobotState, T6Model
 from physics.trajectory import make_trajectory
 
@@ -61,7 +62,10 @@ def simulate(theta: np.ndarray | Mapping[str, float] | None = None, *, controlle
     effects: physics.effects parts the simulated robot has (θ then lives in ``model_space(effects)``;
     the recording does not name them, so data with an undeclared effect are made this way);
     length_reference: record controls and rest lengths as encoder readings (``"encoder"``) or
-    true rest lengths (``"true"``). Raises :class:`PhysicsError` if the simulation diverges.
+    true rest lengths (``"true"``); options: model options, whose dt must divide 1/sample_rate
+    (:class:`StepSizeError` otherwise); default ModelOptions() with the largest dt <= 1 ms that
+    does, dt = Δ / ceil(Δ / 1 ms) for Δ = 1/sample_rate (physics.predictor.physics_step), so any
+    rate runs. Raises :class:`PhysicsError` if the simulation diverges.
     """
     effects = tuple(effects)
     space = space or model_space(effects)
@@ -76,14 +80,10 @@ def simulate(theta: np.ndarray | Mapping[str, float] | None = None, *, controlle
         raise ParameterError(f"noise must be a standard deviation >= 0 m, got {noise!r}.")
     if noise > 0 and seed is None:
         raise ParameterError("noise > 0 needs an explicit seed (an int or numpy Generator) so results repeat.")
+    options = step_options(1.0 / sample_rate, options, what=f"sample_rate {sample_rate:g} Hz")
     model = settled_model(theta_arr, space=space, options=options, settle=settle, effects=effects)
     dt = model.options.dt
     substeps = int(round(1.0 / (sample_rate * dt)))
-    if substeps < 1 or abs(substeps * dt * sample_rate - 1.0) > 1e-9:
-        raise ParameterError(
-            f"1/sample_rate = {1 / sample_rate:g} s must be a whole number of physics steps dt = {dt:g} s; "
-            f"e.g. sample_rate = {1 / (dt * max(substeps, 1)):g} Hz."
-        )
     n = int(round(duration * sample_rate)) + 1
     controller = controller if controller is not None else HoldController()
     controller.reset(model)

@@ -1,12 +1,13 @@
 """The trajectory error E(θ) of the paper's equation (1), on one or many trajectories.
 
+    E(θ) = Σ_trajectories Σ_i || x_{i+1} - f(x_i, u_i, θ) ||_2^2        (loss="squared", the default)
     E(θ) = Σ_trajectories Σ_i || x_{i+1} - f(x_i, u_i, θ) ||_2          (loss="norm", the paper's)
-    E(θ) = Σ_trajectories Σ_i || x_{i+1} - f(x_i, u_i, θ) ||_2^2        (loss="squared")
 
 with x the 36 node coordinates [m] (:mod:`physics.predictor`). The squared loss is a sum of
 squared residuals: with Gaussian observation noise of variance σ² per coordinate,
 exp(-E/(2σ²)) is the likelihood, which is what belief's ``likelihood`` posterior assumes
-(``n_observations`` gives the residual count for estimating σ²). ``horizon`` sets how far each
+(``n_observations`` gives the residual count for estimating σ²); hence it is the default, here
+and in ``tensegrid identify --loss``. ``horizon`` sets how far each
 prediction runs before it is compared:
 
 - ``1``: the paper's one-step error (every sample whose state can be rebuilt);
@@ -43,9 +44,9 @@ from physics.errors import ParameterError, TrajectoryFormatError
 from physics.objective import BatchResult, OnResult, Row, check_windows, evaluate_row, residual_row
 from physics.parameters import ParameterSpace
 from physics.pool import DaskPool, map_serial
-from physics.predictor import ObservedStates, actuator_states, predict
+from physics.predictor import ObservedStates, actuator_states, predict, step_options
 from physics.tensegrity import ModelOptions, T6Model
-from physics.trajectory import validate_trajectory
+from physics.trajectory import regular_clock, validate_trajectory
 
 __all__ = ["TrajectoryObjective", "BatchResult"]
 
@@ -62,7 +63,13 @@ class TrajectoryObjective:
     actuators: "reconstructed" (default: θ's motor model is run along the observed motion, so the
     motor parameters act on E), "measured" (rest lengths from the data's encoder readings: the
     motor parameters then barely act on a one-step error) or "auto" (measured if available);
-    loss: "norm" or "squared"; options: model options (dt must divide the sampling interval);
+    loss: "squared" (default: Σ‖r‖², the sum of squares the likelihood posterior assumes, as the
+    command line's --loss) or "norm" (Σ‖r‖, the paper's); options: model options, whose dt must
+    divide every trajectory's sampling interval (default None: ModelOptions() with, per trajectory,
+    dt = Δ / ceil(Δ / 1 ms), the largest step up to 1 ms that divides its interval Δ;
+    physics.predictor.physics_step; the options used
+    per trajectory are ``model_options``); trajectories are put on their regular clock first
+    (physics.trajectory.regular_clock: jitter snapped, missing timestamps NaN rows);
     windows: segments per trajectory (module docstring); effects: physics.effects parts added to
     the T6 (θ then lives in ``model_space(effects)``: 15 T6 parameters, then the effects');
     address: a dask scheduler address for batches (default: a local cluster of ``n_workers``
@@ -70,7 +77,7 @@ class TrajectoryObjective:
     """
 
     def __init__(self, trajectories: xr.Dataset | Sequence[xr.Dataset], *, space: ParameterSpace | None = None,
-                 horizon: int | str = 1, actuators: str = "reconstructed", loss: str = "norm",
+                 horizon: int | str = 1, actuators: str = "reconstructed", loss: str = "squared",
                  options: ModelOptions | None = None, windows: int = 3, effects: Sequence[Effect] = (),
                  address: str | None = None, n_workers: int = 2) -> None:
         if isinstance(trajectories, xr.Dataset):
@@ -78,7 +85,7 @@ class TrajectoryObjective:
         trajectories = list(trajectories)
         if not trajectories:
             raise TrajectoryFormatError("TrajectoryObjective needs at least one trajectory, got an empty sequence.")
-        self.trajectories = [validate_trajectory(ds) for ds in trajectories]
+        self.trajectories = [validate_trajectory(regular_clock(ds)) for ds in trajectories]
         self.effects = tuple(effects)
         self.space = space or model_space(self.effects)
         if self.space.names != model_space(self.effects).names:
@@ -92,16 +99,12 @@ class TrajectoryObjective:
             raise ParameterError(f"loss must be 'norm' (Σ‖r‖, the paper's) or 'squared' (Σ‖r‖²), got {loss!r}.")
         self.horizon, self.actuators, self.loss = horizon, actuators, loss
         self.windows = check_windows(windows, "segments per trajectory")
-        self.options = options or ModelOptions()
-        self._pool = DaskPool(address, n_workers=n_workers, warm_up=_warm_up)
+        self.options = options
         self._observed = [ObservedStates(ds) for ds in self.trajectories]
+        self.model_options = tuple(step_options(obs.interval, options, what=f"trajectory {k}")
+                                   for k, obs in enumerate(self._observed))
+        self._pool = DaskPool(address, n_workers=n_workers, warm_up=_warm_up)
         for k, obs in enumerate(self._observed):
-            sub = obs.interval / self.options.dt
-            if abs(sub - round(sub)) > 1e-6 or round(sub) < 1:
-                raise TrajectoryFormatError(
-                    f"trajectory {k}: sampling interval {obs.interval:g} s is not a whole number of physics "
-                    f"steps dt = {self.options.dt:g} s; resample the data or set ModelOptions(dt=...)."
-                )
             if not obs.valid.any():
                 raise TrajectoryFormatError(f"trajectory {k}: no sample has a complete state (nodes, velocity "
                                             "estimate and controls); too many NaN.")
@@ -134,7 +137,7 @@ class TrajectoryObjective:
             for arr in (obs.times, obs.nodes, obs.controls, obs.velocities):
                 digest.update(np.ascontiguousarray(arr).tobytes())
         return {"kind": "T6 TrajectoryObjective", "data_sha256": digest.hexdigest(), "horizon": str(self.horizon),
-                "actuators": self.actuators, "loss": self.loss, "options": repr(self.options),
+                "actuators": self.actuators, "loss": self.loss, "options": self._options_record(),
                 "parameters": list(self.space.names), "windows": self.windows, "segments": list(self.segments),
                 "effects": [e.config() for e in self.effects]}
 
@@ -175,11 +178,20 @@ class TrajectoryObjective:
                                  "use evaluate_batch for a batch (n x D).")
         return arr
 
+    def _options_record(self) -> str | list[str]:
+        """The model options for a fingerprint: one repr when every trajectory uses the same, else one each."""
+        reprs = [repr(o) for o in self.model_options]
+        return reprs[0] if len(set(reprs)) == 1 else reprs
+
     def _predict(self, theta: np.ndarray) -> list[np.ndarray]:
-        """Predicted nodes (T x 12 x 3) per trajectory, NaN where not predicted. One pass of the simulator."""
-        model = T6Model(theta, space=self.space, options=self.options, effects=self.effects)
+        """Predicted nodes (T x 12 x 3) per trajectory, NaN where not predicted. One pass of the simulator
+        per trajectory, on one model per distinct options (physics step)."""
+        models: dict[ModelOptions, T6Model] = {}
         out = []
-        for obs in self._observed:
+        for obs, options in zip(self._observed, self.model_options, strict=True):
+            if options not in models:
+                models[options] = T6Model(theta, space=self.space, options=options, effects=self.effects)
+            model = models[options]
             pred = np.full_like(obs.nodes, np.nan)
             rest, speed = actuator_states(obs, model, self.actuators)
             controls_ok = np.isfinite(obs.controls).all(axis=1)
@@ -293,6 +305,7 @@ class TrajectoryObjective:
         other = copy.copy(self)
         other.trajectories = [self.trajectories[k] for k in index]
         other._observed = [self._observed[k] for k in index]
+        other.model_options = tuple(self.model_options[k] for k in index)
         other._groups = [self._groups[k] for k in index]
         return other
 

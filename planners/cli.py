@@ -2,17 +2,16 @@
 
 ::
 
-    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--objective cvar] [--horizon 2]
+    tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--risk cvar] [--horizon 2]
                    [--no-learn] [--truth T] [--compare] --out DIR
     tensegrid probe BELIEF.nc [--truth T] [--steps N] [--cells M] [--sigma S] [--targets NAME ...] --out DIR
 
 The robot is simulated at the truth T: ``nominal`` (default), a JSON file ({name: value} or 15
 numbers in the order of the T6 space) or a trajectory file (netCDF) that carries the θ it was
 simulated at. ``plan`` flops the robot to the goal, replanning after each flop under the belief
-(re-weighed by the flops so far; ``--no-learn`` keeps P as loaded; with ``--compare`` also under the nominal θ and the
-MAP θ) and writes ``plan.json`` and
-``plan.png``; ``probe`` runs active identification and writes ``probe.json``, ``probe.png`` and
-``belief_probed.nc``.
+(re-weighed by the flops so far; ``--no-learn`` keeps P as loaded; with ``--compare`` also under
+the nominal θ and the MAP θ) and writes ``plan.json`` and ``plan.png``; ``probe`` runs active
+identification and writes ``probe.json``, ``probe.png`` and ``belief_probed.nc``.
 """
 from __future__ import annotations
 
@@ -83,7 +82,8 @@ def register_plan(subparsers: argparse._SubParsersAction[Any]) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     _common(p)
     p.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"), help="goal point [m]")
-    p.add_argument("--objective", choices=["cvar", "expected", "success"], default="cvar")
+    p.add_argument("--risk", choices=["cvar", "expected", "success"], default="cvar",
+                   help="risk measure of a flop's outcomes over the draws of P (default cvar)")
     p.add_argument("--level", type=float, default=0.5, help="CVaR level α in (0, 1] (default 0.5)")
     p.add_argument("--samples", type=int, default=12, help="θ draws of the belief per candidate (default 12)")
     p.add_argument("--radius", type=float, default=0.5, help="goal radius [m] (default 0.5)")
@@ -118,22 +118,23 @@ def _step_json(step: PlanStep) -> dict[str, Any]:
 
 def run_plan(args: argparse.Namespace) -> int:
     """Run ``tensegrid plan`` (module docstring)."""
+    from physics.outputs import check_output_dir, make_output_dir
     from physics.pool import DaskPool
     from planners.plots import plot_plan
     from planners.robust import PointBelief, plan_to_goal
 
+    check_output_dir(args.out)          # a bad --out is an error before any work; the folder is made at the end
     belief = _load_belief(args.belief, args.group)
     truth = read_truth(args.truth)
     planners: dict[str, SamplingBelief] = {"robust": belief}
     if args.compare:
         planners.update({"nominal": PointBelief(belief.space.nominal), "MAP": PointBelief(belief.map)})
-    os.makedirs(args.out, exist_ok=True)
-    runs, record = {}, {"goal": list(args.goal), "truth": truth.tolist(), "objective": args.objective,
+    runs, record = {}, {"goal": list(args.goal), "truth": truth.tolist(), "risk": args.risk,
                         "level": args.level, "samples": args.samples, "radius": args.radius,
                         "horizon": args.horizon, "learn": args.learn, "runs": {}}
     with DaskPool(n_workers=args.workers) as pool:
         for name, b in planners.items():
-            run = plan_to_goal(b, truth, args.goal, radius=args.radius, max_steps=args.steps, objective=args.objective,
+            run = plan_to_goal(b, truth, args.goal, radius=args.radius, max_steps=args.steps, risk=args.risk,
                                level=args.level, samples=args.samples, seed=args.seed, horizon=args.horizon,
                                learn=args.learn, pool=pool)
             runs[name] = run
@@ -141,6 +142,7 @@ def run_plan(args: argparse.Namespace) -> int:
                                     "steps": [_step_json(s) for s in run.steps]}
             print(f"{name:>8}: {'reached' if run.reached else 'not reached'} in {len(run.steps)} flops, final "
                   f"distance {run.final_distance:.2f} m; flops: {', '.join(s.choice.action.label for s in run.steps)}")
+    make_output_dir(args.out)
     with open(os.path.join(args.out, "plan.json"), "w") as fh:
         json.dump(record, fh, indent=1)
     plot_plan(runs["robust"], os.path.join(args.out, "plan.png"),
@@ -151,14 +153,16 @@ def run_plan(args: argparse.Namespace) -> int:
 
 def run_probe(args: argparse.Namespace) -> int:
     """Run ``tensegrid probe`` (module docstring)."""
+    from physics.outputs import check_output_dir, make_output_dir
     from planners.plots import plot_probe
     from planners.probe import probe
 
+    check_output_dir(args.out)
     belief = _load_belief(args.belief, args.group)
     truth = read_truth(args.truth)
     run = probe(belief, truth, steps=args.steps, cells=args.cells, sigma=args.sigma, seed=args.seed,
                 min_gain=args.min_gain, targets=args.targets, n_workers=args.workers)
-    os.makedirs(args.out, exist_ok=True)
+    make_output_dir(args.out)
     for k, s in enumerate(run.steps, start=1):
         print(f"probe {k}: {s.action.label}  expected gain {s.gain:.3f} nats  entropy {s.entropy_before:.3f} -> "
               f"{s.entropy_after:.3f} nats  identified: {[n for n, v in s.verdicts.items() if v == 'identified']}")

@@ -16,7 +16,7 @@ centre c₁ on face f then has the next landings c₂ = c₁ + Δ₂(f, e)::
 with L the median length of the flops in the rollout set that changed face and ε = 0.01 (among
 second flops that all reach the disc, the one that lands deepest wins). A landing in the disc
 needs nothing more; one from which a flop reaches the disc needs one; else one plus the remaining
-distance in flop lengths. Staying put (a nudge, a failed flop) costs a flop, so it is no longer
+distance in flop lengths. Staying put (a nudge, a failed flop) costs a flop, so it is not
 free. Without simulated next flops (``nxt`` None) Δ₂(f, e) = L n_e, n_e the outward normal of
 edge e (:func:`planners.actions.face_headings`). Not "ok" outcomes count as staying at c₀.
 """

@@ -69,7 +69,7 @@ def _spread(ax: plt.Axes, run: GoalRun) -> None:
     ax.set_xticks(range(prog.shape[0]))
     ax.set_xticklabels([a.label for a in choice.rollouts.actions], rotation=70, fontsize=6)
     ax.set_ylabel("progress toward the goal [m]" if choice.horizon == 1 else "−flops to go (two-flop lookahead)")
-    ax.set_title(f"first step: {prog.shape[1]} draws of P per candidate ({choice.objective})", fontsize=9)
+    ax.set_title(f"first step: {prog.shape[1]} draws of P per candidate ({choice.risk})", fontsize=9)
     ax.legend(fontsize=7)
 
 

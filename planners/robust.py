@@ -7,9 +7,10 @@ For a goal g (``2`` [m]) and a start centre c₀, a flop with displacement Δ ma
 With ``horizon=2`` (the default) the value of an outcome is instead −flops_to_go: the flops still
 needed to be within ``radius`` of the goal, the next flop across each edge of the landing face
 simulated under the draws' mean θ (:mod:`planners.lookahead`); a nudge that leaves the robot on its
-face no longer looks free.
+face does not look free.
 
-Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score (``objective``):
+Over K draws θ_k ~ P (``belief.sample(K, seed)``) each candidate gets a score by the risk
+measure ``risk`` (:data:`RISK_MEASURES`):
 
 - ``"expected"``: mean_k value_k;
 - ``"cvar"``: CVaR_α of the values, the mean of the worst α fraction (:func:`cvar`);
@@ -115,22 +116,22 @@ def outcome_values(rs: RolloutSet, goal: np.ndarray, *, horizon: int, radius: fl
     return progress(rs.displacement, rs.ok, rs.start.centre, goal) if prog is None else prog
 
 
-def score(rs: RolloutSet, goal: np.ndarray, *, objective: str = "cvar", level: float = 0.5,
+def score(rs: RolloutSet, goal: np.ndarray, *, risk: str = "cvar", level: float = 0.5,
           threshold: float = 0.2, horizon: int = 1, radius: float = 0.5,
           nxt: Mapping[tuple[int, ...], np.ndarray] | None = None,
           values: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(scores ``n_a``, progress ``n_a x K`` [m], success ``n_a x K`` bool) of a rollout set (module
     docstring); the scores are in metres of progress (``horizon`` 1) or in −flops to go (``horizon`` 2).
     ``values``: the outcome values if already computed (:func:`outcome_values`)."""
-    if objective not in RISK_MEASURES:
-        raise PlannerError(f"objective must be one of {RISK_MEASURES}, got {objective!r}.")
+    if risk not in RISK_MEASURES:
+        raise PlannerError(f"risk must be one of the risk measures {RISK_MEASURES}, got {risk!r}.")
     alpha = check_level(level)
     prog = progress(rs.displacement, rs.ok, rs.start.centre, goal)
     value = outcome_values(rs, goal, horizon=horizon, radius=radius, prog=prog, nxt=nxt) if values is None else values
     success = rs.flopped & (prog > threshold)
-    if objective == "expected":
+    if risk == "expected":
         s = value.mean(axis=1)
-    elif objective == "cvar":
+    elif risk == "cvar":
         s = np.array([cvar(row, alpha) for row in value])
     else:
         s = success.mean(axis=1) + 1e-6 * np.tanh(value.mean(axis=1))   # tie-break by the expected value
@@ -167,7 +168,7 @@ class FlopChoice:
     progress: np.ndarray
     success: np.ndarray
     rollouts: RolloutSet = field(repr=False)
-    objective: str = "cvar"
+    risk: str = "cvar"
     level: float = 0.5
     horizon: int = 2
     values: np.ndarray | None = field(default=None, repr=False)
@@ -186,7 +187,7 @@ def _start(start: RobotStart | T6Model | None) -> RobotStart:
 
 def plan_flop(belief: SamplingBelief, start: RobotStart | T6Model | None, goal: np.ndarray | Sequence[float], *,
               actions: Sequence[FlopAction] | None = None,
-              objective: str = "cvar", level: float = 0.5, samples: int = 16, seed: int = 0,
+              risk: str = "cvar", level: float = 0.5, samples: int = 16, seed: int = 0,
               threshold: float = 0.2, radius: float = 0.5, max_distance: float = 20.0, horizon: int = 2,
               pool: DaskPool | None = None, n_workers: int = 0, progress: bool = False) -> FlopChoice:
     """Best flop from ``start`` (RobotStart, T6Model or None) toward the disc of ``radius`` [m] around
@@ -205,10 +206,10 @@ def plan_flop(belief: SamplingBelief, start: RobotStart | T6Model | None, goal: 
         if own:
             pool.close()
     values = outcome_values(rs, g, horizon=horizon, radius=radius, nxt=nxt)
-    s, prog, success = score(rs, g, objective=objective, level=level, threshold=threshold, horizon=horizon,
+    s, prog, success = score(rs, g, risk=risk, level=level, threshold=threshold, horizon=horizon,
                              radius=radius, values=values)
     k = int(np.argmax(s))
-    return FlopChoice(acts[k], k, s, prog, success, rs, objective, float(level), int(horizon), values)
+    return FlopChoice(acts[k], k, s, prog, success, rs, risk, float(level), int(horizon), values)
 
 
 @dataclass(frozen=True)
@@ -247,7 +248,7 @@ class GoalRun:
 
 def plan_to_goal(belief: SamplingBelief, robot: SimulatedRobot | np.ndarray | None,
                  goal: np.ndarray | Sequence[float], *, radius: float = 0.5, max_steps: int = 8,
-                 objective: str = "cvar", level: float = 0.5,
+                 risk: str = "cvar", level: float = 0.5,
                  samples: int = 16, seed: int = 0, threshold: float = 0.2, horizon: int = 2,
                  learn: bool = True, cells: int = 32, sigma: float = 0.02, actions_kw: dict | None = None,
                  pool: DaskPool | None = None, n_workers: int = 0, progress: bool = True) -> GoalRun:
@@ -274,7 +275,7 @@ def plan_to_goal(belief: SamplingBelief, robot: SimulatedRobot | np.ndarray | No
         for k in tqdm(range(int(max_steps)), desc="plan_to_goal", disable=not progress, leave=False):
             st = robot.observe()
             acts = candidate_actions(nodes=st.nodes, **(actions_kw or {}))
-            choice = plan_flop(evidence.belief() if evidence else belief, st, g, actions=acts, objective=objective,
+            choice = plan_flop(evidence.belief() if evidence else belief, st, g, actions=acts, risk=risk,
                                level=level, samples=samples, seed=seed + k, threshold=threshold, radius=radius,
                                horizon=horizon, pool=pool)
             before = robot.centre

@@ -1,4 +1,4 @@
-"""Parameters pinned at a bound of the box after fitting: detection, verdict rule 6, the Belief's
+"""Parameters pinned at a bound of the box after fitting: detection, the "at bound" verdict rule, the Belief's
 summary and file, and identify on data the model cannot fit (criticism's re-tuning:
 tests/criticism/test_diagnose.py)."""
 from __future__ import annotations
@@ -97,7 +97,7 @@ def test_bad_input_is_refused_with_the_fix() -> None:
         VerdictConfig(bound_tolerance=0.7)
 
 
-# ------------------------------------------------------------------------------------ rule 6 and Belief
+# --------------------------------------------------------------------------- "at bound" and Belief
 def _marginals(std: list[float]) -> xr.Dataset:
     names = ["a", "b", "c"]
     return xr.Dataset({"std": ("parameter", np.asarray(std)), "prior_std": ("parameter", np.ones(3))},
@@ -108,7 +108,7 @@ def test_rule_6_keeps_only_parameters_the_data_narrow() -> None:
     found = tuple(AtBound(n, "m", "upper", 1.0, 1.0, 0.5) for n in ("a", "b", "c"))
     assert [a.name for a in pinned(_marginals([0.1, 0.79, 0.9]), found, weak_ratio=0.8)] == ["a", "b"]
     wide = pinned(_marginals([0.1, 0.1, 0.1]), found, weak_ratio=0.8, local_ratio=[0.2, 1.5, 0.0])
-    assert [a.name for a in wide] == ["a", "c"]             # rule 5b: the local fit sees no information on b
+    assert [a.name for a in wide] == ["a", "c"]             # local width: the local fit sees no information on b
 
 
 def _belief(at: list[AtBound]) -> Belief:
@@ -173,7 +173,7 @@ def test_identify_reports_a_parameter_the_data_push_out_of_the_box(rod_length, s
 @pytest.mark.slow
 def test_identify_reports_nothing_when_the_truth_is_inside_the_box() -> None:
     """The control: rod_length 1.70 m inside the box. The local step leaves parameters the data do
-    not see on the box's edge (density and motor_inertia with this seed); rule 6 does not list them."""
+    not see on the box's edge (density and motor_inertia with this seed); the "at bound" rule does not list them."""
     result = _identify_rod(1.70)
     assert result.at_bounds == () and "Model inadequacy" not in result.summary()
     local = np.asarray(result.belief.attrs["local_fit"]["theta"])

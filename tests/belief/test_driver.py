@@ -52,7 +52,7 @@ def test_a_controller_error_is_failed_in_a_batch_and_in_a_one_cell_batch(push_pr
     dec = Identity(obj.space)
     path = tmp_path / "j.sqlite"
     res = identify(objective, dec, Grid.for_decoder(dec, points_per_dim=11), budget=9, n_init=5, q=1, seed=0,
-                   space=obj.space, journal=path, progress=False, posterior=None)
+                   journal=path, progress=False, posterior=None)
     h = res.history
     failed = np.flatnonzero(h["status"].values == "failed")
     assert h["batch"].values[failed].tolist() == [0, 2]          # the first batch and a later one-cell batch

@@ -1,4 +1,4 @@
-"""P never contradicts its evaluations: the likelihood's evaluated floor and verdict rule 4.
+"""P never contradicts its evaluations: the likelihood's evaluated floor and the "evaluated support" verdict rule.
 
 The mechanism (belief.posterior, docs/identification.md): with σ² estimated from the evaluations,
 E is floored at the best evaluated error, so no cell outweighs the best evaluation, and a

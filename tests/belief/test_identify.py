@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -10,18 +11,21 @@ import xarray as xr
 from belief import (
     BeliefError,
     BudgetError,
+    BudgetWarning,
     Grid,
     GridError,
     IdentificationResult,
     ObjectiveError,
     PosteriorConfig,
     SobolCandidates,
+    SurrogateConfig,
     credible_mask,
     identify,
 )
 from embeddings import REMBO, Identity
 from belief.grid import CandidateSet
 from physics.errors import ContractError, ParameterError, PhysicsError
+from physics.objective import FunctionObjective
 from physics.parameters import ParameterSpace
 from physics.push import PushObjective, push_space
 
@@ -109,8 +113,8 @@ def test_random_method_is_seeded_and_distinct(push_problem) -> None:
     obj, _ = push_problem()
     dec = Identity(obj.space)
     grid = Grid.for_decoder(dec, points_per_dim=11)
-    a = identify(obj, dec, grid, budget=20, seed=1, method="random", progress=False)
-    b = identify(obj, dec, grid, budget=20, seed=1, method="random", progress=False)
+    a = identify(obj, dec, grid, budget=20, seed=1, proposer="random", progress=False)
+    b = identify(obj, dec, grid, budget=20, seed=1, proposer="random", progress=False)
     assert _same_history(a.history, b.history)
     assert len(set(a.history["cell"].values.tolist())) == 20
 
@@ -127,7 +131,7 @@ def test_failed_evaluations_are_recorded_not_fatal(push_problem) -> None:
     assert all(msg for msg in h["message"].values[failed])  # every failure says why
     P = res.posterior.values.ravel()
     assert np.all(P[h["cell"].values[failed]] == 0) and P.sum() == pytest.approx(1.0)
-    imp = identify(obj, dec, grid, budget=20, seed=0, progress=False, impute_failed=True)
+    imp = identify(obj, dec, grid, budget=20, seed=0, progress=False, surrogate=SurrogateConfig(impute_failed=True))
     assert (imp.history["status"].values == "diverged").any()
 
 
@@ -139,7 +143,7 @@ def test_nan_errors_are_failed_evaluations(push_problem) -> None:
 
     dec = Identity(obj.space)
     res = identify(nan_when_heavy, dec, Grid.for_decoder(dec, points_per_dim=21), budget=15, seed=0,
-                   space=obj.space, noise_var=0.0025, progress=False)
+                   posterior=PosteriorConfig(noise_var=0.0025), progress=False)
     failed = res.history["status"].values == "failed"
     assert failed.any()
     assert all("not one finite value" in m for m in res.history["message"].values[failed])
@@ -154,7 +158,7 @@ def test_all_failed_raises_objective_error(push_problem) -> None:
     dec = Identity(obj.space)
     with pytest.raises(ObjectiveError, match="all 6 evaluations failed"):
         identify(always_diverges, dec, Grid.for_decoder(dec, points_per_dim=5), budget=6, seed=0,
-                 space=obj.space, progress=False)
+                 progress=False)
 
 
 def test_batches_with_evaluate_batch_or_threads_give_the_same_history(push_problem) -> None:
@@ -166,8 +170,8 @@ def test_batches_with_evaluate_batch_or_threads_give_the_same_history(push_probl
     def plain(theta: np.ndarray) -> float:
         return obj(theta)
 
-    b = identify(plain, dec, grid, budget=14, q=3, seed=0, progress=False, posterior=None, space=obj.space,
-                 workers=2)
+    b = identify(FunctionObjective(plain, obj.space, workers=2), dec, grid, budget=14, q=3, seed=0, progress=False,
+                 posterior=None)
     assert _same_history(a.history, b.history)
     assert a.posterior is None and a.marginals is None
     assert a.history["batch"].values.tolist() == [0] * 5 + [1] * 3 + [2] * 3 + [3] * 3
@@ -181,8 +185,8 @@ def test_time_budget_stops_early(push_problem) -> None:
         return obj(theta)
 
     dec = Identity(obj.space)
-    res = identify(slow, dec, Grid.for_decoder(dec, points_per_dim=21), time_budget=0.4, seed=0, space=obj.space,
-                   noise_var=0.0025, progress=False)
+    res = identify(slow, dec, Grid.for_decoder(dec, points_per_dim=21), time_budget=0.4, seed=0,
+                   posterior=PosteriorConfig(noise_var=0.0025), progress=False)
     assert res.config["stopped"] == "time" and 2 <= res.n_evaluations <= 9
 
 
@@ -205,11 +209,11 @@ def test_rembo_on_sobol_candidates_in_15d(tmp_path) -> None:
         return float(np.sum(((theta - nominal) / (space.upper - space.lower)) ** 2))
 
     dec = REMBO(space, dim=3, seed=0)
-    res = identify(quad, dec, Grid.for_decoder(dec, points_per_dim=9), budget=12, seed=0, space=space,
+    res = identify(quad, dec, Grid.for_decoder(dec, points_per_dim=9), budget=12, seed=0,
                    posterior="minimizer", progress=False)
     assert res.marginals.sizes["parameter"] == 15
     full = Identity(space)
-    res2 = identify(quad, full, SobolCandidates.for_decoder(full, n=2000, seed=0), budget=12, seed=0, space=space,
+    res2 = identify(quad, full, SobolCandidates.for_decoder(full, n=2000, seed=0), budget=12, seed=0,
                     posterior="minimizer", progress=False)
     assert res2.posterior.dims == ("cell",)
     res2.save(tmp_path / "sobol.nc")
@@ -250,9 +254,10 @@ def test_validation(push_problem) -> None:
         (BudgetError, "time_budget must be a positive", {"time_budget": -1.0}),
         (BudgetError, "q \\(cells per batch\\)", {"q": 0}),
         (BudgetError, "n_init >= 2", {"n_init": 1}),
-        (BeliefError, "method must be one of", {"method": "grid"}),
+        (BeliefError, "proposer must be one of", {"proposer": "grid"}),
+        (BeliefError, "proposer must be one of .* or a belief.Proposer", {"proposer": object()}),
         (BeliefError, "seed must be an integer", {"seed": 1.5}),
-        (BeliefError, "workers must be", {"workers": 0}),
+        (BeliefError, "posterior must be 'likelihood'", {"posterior": "bayes"}),
         (GridError, "grid is empty", {"grid": _EmptyGrid()}),
         (GridError, "grid has 3 latent dimensions", {"grid": Grid(np.tile([0.0, 1.0], (3, 1)), points_per_dim=3)}),
         (GridError, "leave the decoder's latent box", {"grid": Grid([[0.0, 2.0], [0.0, 1.0]], points_per_dim=5)}),
@@ -260,18 +265,21 @@ def test_validation(push_problem) -> None:
         (BeliefError, "differs from the objective", {"decoder": Identity(push_space(mass=(0.4, 1.5)))}),
         (BeliefError, "an embeddings.Decoder", {"decoder": object()}),
         (ContractError, "must be a physics.objective.Objective or a function", {"objective": 3.0}),
-        (ParameterError, "differs from the objective's own", {"space": push_space(mass=(0.4, 1.5))}),
-        (BeliefError, "contradicts posterior_config", {"posterior_config": PosteriorConfig(mode="minimizer")}),
     ]
     for exc, match, kw in cases:
         with pytest.raises(exc, match=match):
             run(**kw)
-    with pytest.raises(ParameterError, match="pass space="):
-        identify(lambda th: 0.0, dec, grid, budget=5, seed=0, progress=False)
+    for gone in ("method", "space", "workers", "noise_var", "posterior_config", "impute_failed"):
+        with pytest.raises(TypeError, match=gone):          # one source per option: these are config fields now
+            run(**{gone: None})
+    with pytest.raises(ParameterError, match="pass space="):        # a preset has no decoder to take it from
+        identify(lambda th: 0.0, budget=5, seed=0, preset="bo", progress=False)
+    with pytest.raises(BeliefError, match="space= and workers= wrap a plain function"):
+        identify(obj, budget=5, seed=0, preset="bo", space=obj.space, progress=False)
     with pytest.raises(ContractError, match="scalar error, got an array of shape"):
-        identify(lambda th: np.ones(3), dec, grid, budget=5, seed=0, space=obj.space, progress=False)
+        identify(lambda th: np.ones(3), dec, grid, budget=5, seed=0, progress=False)
     with pytest.raises(ContractError, match="got str"):
-        identify(lambda th: "bad", dec, grid, budget=5, seed=0, space=obj.space, progress=False)
+        identify(lambda th: "bad", dec, grid, budget=5, seed=0, progress=False)
 
 
 def test_streamed_rows_keep_statuses_and_parts(push_problem) -> None:
@@ -302,3 +310,15 @@ def test_streamed_rows_keep_statuses_and_parts(push_problem) -> None:
     ok = h["status"].values == "ok"
     np.testing.assert_allclose(h["parts"].values[ok].sum(axis=1), h["error"].values[ok])
     assert np.isnan(h["parts"].values[~ok]).all()
+
+
+def test_a_budget_within_the_initial_design_warns_that_bo_never_runs(push_problem) -> None:
+    obj, _ = push_problem()
+    dec = Identity(obj.space)
+    grid = Grid.for_decoder(dec, points_per_dim=11)
+    with pytest.warns(BudgetWarning, match="budget=5 is no more than the initial design of 5 cells"):
+        identify(obj, dec, grid, budget=5, seed=0, progress=False, posterior=None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BudgetWarning)
+        identify(obj, dec, grid, budget=6, seed=0, progress=False, posterior=None)      # one BO step: no warning
+        identify(obj, dec, grid, budget=5, seed=0, progress=False, posterior=None, proposer="random")

@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from belief import Grid, Journal, JournalError, Record, identify
+from belief import Grid, Journal, JournalError, PosteriorConfig, Record, identify
 from embeddings import Identity
 from physics.objective import BatchResult, evaluate_row
 from physics.push import PushObjective
@@ -45,15 +45,15 @@ def test_refuses_a_journal_of_another_problem(tmp_path, push_problem) -> None:
     grid = Grid.for_decoder(dec, points_per_dim=11)
     path = tmp_path / "j.sqlite"
     identify(obj, dec, grid, budget=6, seed=0, journal=path, progress=False)
-    with pytest.raises(JournalError, match=r"different problem \(differs in: seed\)"):
+    with pytest.raises(JournalError, match=r"different problem \(differs in: proposer.initial.seed, proposer.seed, seed\)"):
         identify(obj, dec, grid, budget=6, seed=1, journal=path, progress=False)
     with pytest.raises(JournalError, match="grid.points_per_dim"):
         identify(obj, dec, Grid.for_decoder(dec, points_per_dim=12), budget=6, seed=0, journal=path, progress=False)
     other, _ = push_problem(seed=5)
     with pytest.raises(JournalError, match="objective.data_sha256"):
         identify(other, dec, grid, budget=6, seed=0, journal=path, progress=False)
-    with pytest.raises(JournalError, match="method"):
-        identify(obj, dec, grid, budget=6, seed=0, journal=path, progress=False, method="random")
+    with pytest.raises(JournalError, match="proposer.kind"):
+        identify(obj, dec, grid, budget=6, seed=0, journal=path, progress=False, proposer="random")
     junk = tmp_path / "junk.sqlite"
     junk.write_bytes(b"this is not a database at all" * 100)
     with pytest.raises(JournalError, match="not a tensegrid journal"):
@@ -72,8 +72,8 @@ def test_each_evaluation_is_committed_before_the_next_starts(tmp_path, push_prob
         return obj(theta)
 
     dec = Identity(obj.space)
-    identify(spy, dec, Grid.for_decoder(dec, points_per_dim=11), budget=8, seed=0, journal=path, space=obj.space,
-             noise_var=0.0025, progress=False)
+    identify(spy, dec, Grid.for_decoder(dec, points_per_dim=11), budget=8, seed=0, journal=path,
+             posterior=PosteriorConfig(noise_var=0.0025), progress=False)
     assert seen == list(range(8))
 
 
@@ -92,7 +92,7 @@ def test_resume_after_an_interruption_mid_batch(tmp_path, push_problem) -> None:
         return obj(theta)
 
     path = tmp_path / "j.sqlite"
-    kw = dict(budget=14, q=3, seed=2, progress=False, posterior=None, space=obj.space, journal=path)
+    kw = dict(budget=14, q=3, seed=2, progress=False, posterior=None, journal=path)
     with pytest.raises(KeyboardInterrupt):
         identify(crashing, dec, grid, **kw)
     with sqlite3.connect(path) as con:
@@ -128,7 +128,7 @@ def test_a_parallel_batch_is_journalled_row_by_row_and_resumes_its_missing_cells
     obj, _ = push_problem()
     dec = Identity(obj.space)
     grid = Grid.for_decoder(dec, points_per_dim=21)
-    kw = dict(budget=12, q=4, n_init=4, seed=5, progress=False, posterior=None, space=obj.space)
+    kw = dict(budget=12, q=4, n_init=4, seed=5, progress=False, posterior=None)
     ref = identify(_streaming(obj), dec, grid, **kw)
     path = tmp_path / "j.sqlite"
     with pytest.raises(KeyboardInterrupt):
@@ -165,7 +165,7 @@ _SCRIPT = textwrap.dedent(
     import numpy as np
     from physics.push import PushObjective, generate_push_data
     from embeddings import Identity
-    from belief import Grid, identify
+    from belief import Grid, PosteriorConfig, identify
 
     J, S = generate_push_data([1.0, 0.4], n=8, noise_std=0.05, seed=0)
     obj = PushObjective(J, S, noise_std=0.05)
@@ -176,7 +176,7 @@ _SCRIPT = textwrap.dedent(
 
     dec = Identity(obj.space)
     identify(slow, dec, Grid.for_decoder(dec, points_per_dim=21), budget=16, seed=7, journal=sys.argv[1],
-             space=obj.space, noise_var=0.0025, progress=False)
+             posterior=PosteriorConfig(noise_var=0.0025), progress=False)
     """
 )
 
@@ -216,8 +216,48 @@ def test_sigkill_midway_then_resume_gives_the_uninterrupted_history(tmp_path) ->
     obj = PushObjective(J, S, noise_std=0.05)
     dec = Identity(obj.space)
     grid = Grid.for_decoder(dec, points_per_dim=21)
-    kw = dict(budget=16, seed=7, space=obj.space, noise_var=0.0025, progress=False)
+    kw = dict(budget=16, seed=7, posterior=PosteriorConfig(noise_var=0.0025), progress=False)
     resumed = identify(lambda th: obj(th), dec, grid, journal=path, **kw)
     straight = identify(lambda th: obj(th), dec, grid, **kw)
     assert _same_history(resumed.history, straight.history)
     assert np.array_equal(resumed.posterior.values, straight.posterior.values)
+
+
+def test_a_mismatch_names_its_path_and_set_aside_frees_it(tmp_path) -> None:
+    """The API keeps refusing another problem's journal; set_aside renames it (journal.1, journal.2, ...)."""
+    from belief.journal import JournalMismatchError, set_aside
+
+    path = tmp_path / "journal.sqlite"
+    rec = Record(0, 0, (0.5,), (1.0,), 2.0, 0.1, "ok")
+    for k in (1, 2):
+        with Journal(path, {"a": 1}) as j:
+            j.append(rec)
+        with pytest.raises(JournalMismatchError, match=r"differs in: a\)") as caught:
+            Journal(path, {"a": 2})
+        assert caught.value.path == str(path) and caught.value.reason == "differs in: a"
+        assert isinstance(caught.value, JournalError)
+        assert set_aside(path) == str(tmp_path / f"journal.{k}.sqlite") and not path.exists()
+    with Journal(tmp_path / "journal.1.sqlite", {"a": 1}) as kept:
+        assert kept.records() == [rec]
+
+
+def test_run_with_journals_sets_aside_reports_resumes_and_respects_resume(tmp_path) -> None:
+    from belief.journal import JournalMismatchError, run_with_journals
+
+    path = tmp_path / "j.sqlite"
+    with Journal(path, {"a": 1}) as j:
+        j.append(Record(0, 0, (0.5,), (1.0,), 2.0, 0.1, "ok"))
+    said: list[str] = []
+
+    def run(fingerprint: dict) -> int:
+        with Journal(path, fingerprint) as j:
+            return len(j)
+
+    assert run_with_journals(lambda: run({"a": 1}), resume=True, say=said.append) == 1
+    assert said == [f"resuming from 1 journalled evaluations ({path})"]
+    with pytest.raises(JournalMismatchError, match="drop --resume to set it aside"):
+        run_with_journals(lambda: run({"a": 2}), resume=True, say=said.append)
+    assert path.exists() and not (tmp_path / "j.1.sqlite").exists()
+    assert run_with_journals(lambda: run({"a": 2}), resume=False, say=said.append) == 0
+    assert said[-1] == f"journal {path} was written by another problem (differs in: a); set aside as " \
+                       f"{tmp_path / 'j.1.sqlite'}, starting a new one"

@@ -12,7 +12,7 @@ SEEDS = (0, 1, 2)
 def _random_search(f, budget: int, seed: int) -> float:
     full = Identity(f.space)
     cand = SobolCandidates.for_decoder(full, n=20000, seed=seed)
-    return identify(f, full, cand, budget=budget, seed=seed, method="random", posterior=None,
+    return identify(f, full, cand, budget=budget, seed=seed, proposer="random", posterior=None,
                     progress=False).best_error - f.minimum
 
 

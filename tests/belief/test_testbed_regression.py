@@ -51,7 +51,7 @@ def _identify(files: list[Path], journal: Path, floor: str):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BudgetWarning)
         return identify(objective, decoder, grid, budget=BUDGET, seed=0, journal=journal, progress=False,
-                        posterior_config=PosteriorConfig(floor=floor))
+                        posterior=PosteriorConfig(floor=floor))
 
 
 @pytest.mark.slow

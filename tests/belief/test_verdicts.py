@@ -9,8 +9,8 @@ from belief.errors import BeliefError
 from belief.grid import Grid
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate
-from belief.verdicts import (VerdictConfig, budget_warning, decide, loglik_sd, refit_conflicts, segment_conflicts,
-                             verified_mass)
+from belief.verdicts import (RULES, VerdictConfig, because, budget_warning, decide, loglik_sd, refit_conflicts,
+                             rule_of, segment_conflicts, verified_mass)
 from embeddings import Identity
 from physics.parameters import Parameter, ParameterSpace
 
@@ -72,6 +72,24 @@ def test_decide_follows_the_four_rules() -> None:
     assert v[0] == "not identified" and why[0] == "moves"
     with pytest.raises(BeliefError, match="best_theta must have shape"):
         decide(m, best_theta=[0.5], verified=1.0)
+
+
+def test_every_reason_names_the_rule_that_decided_it() -> None:
+    """Each verdict's reason starts with its rule's name, in the precedence of the module docstring."""
+    m = _marg(mean=[0.5, 0.5, 0.5, 0.5], std=[0.01, 0.2, 0.28, 0.01],
+              lower=[0.48, 0.2, 0.05, 0.48], upper=[0.52, 0.8, 0.95, 0.52])
+    rules = [rule_of(r) for r in decide(m, best_theta=[0.5, 0.5, 0.5, 0.9], verified=0.9)[1]]
+    assert rules == ["narrowing", "narrowing", "narrowing", "evaluated support"]
+    assert rule_of(decide(m, best_theta=[0.5] * 4, verified=0.2)[1][0]) == "verified mass"
+    local = decide(m, best_theta=[0.5] * 4, verified=0.9, local_ratio=[0.9, 0.0, 0.0, 0.0])
+    assert local[0][0] == "not identified" and rule_of(local[1][0]) == "local width"
+    pinned = decide(m, best_theta=[0.5] * 4, verified=0.9, conflicts={"x3": because("at bound", "pinned")})
+    assert rule_of(pinned[1][3]) == "at bound" and pinned[0][3] == "not identified"
+    m["reach"] = ("parameter", np.array([0.1, 1.0, 1.0, 1.0]))
+    assert rule_of(decide(m, best_theta=[0.5] * 4, verified=0.9, conflicts={"x0": "moves"})[1][0]) == "reach"
+    assert rule_of("moves") == "" and rule_of("narrowing") == "" and set(RULES) >= set(rules)
+    with pytest.raises(BeliefError, match="unknown verdict rule"):
+        because("rule 5a", "numbered rules are gone")
 
 
 def test_segment_conflicts_need_two_narrow_disjoint_intervals() -> None:

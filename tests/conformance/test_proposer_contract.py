@@ -15,6 +15,7 @@ from belief.driver import Budget, run
 from belief.grid import Grid
 from belief.journal import Record
 from belief.proposers import BOProposer, Proposer, RandomProposer, SobolDesign, WarmStart
+from belief.surrogate import SurrogateConfig
 from embeddings import Identity
 from physics.objective import FunctionObjective
 from physics.parameters import Parameter, ParameterSpace
@@ -24,7 +25,8 @@ IMPLEMENTATIONS = [
     pytest.param(SobolDesign, id="SobolDesign"),
     pytest.param(lambda seed: WarmStart([24, 3], SobolDesign(seed)), id="WarmStart"),
     pytest.param(BOProposer, id="BOProposer"),
-    pytest.param(lambda seed: BOProposer(seed, initial=WarmStart([0], RandomProposer(seed)), impute_failed=True),
+    pytest.param(lambda seed: BOProposer(seed, initial=WarmStart([0], RandomProposer(seed)),
+                                          surrogate=SurrogateConfig(impute_failed=True)),
                  id="BOProposer-warm-imputed"),
 ]
 GRID = Grid([[0.0, 1.0], [0.0, 1.0]], points_per_dim=7)

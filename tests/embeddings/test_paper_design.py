@@ -32,7 +32,7 @@ def _first(decoder, grid, budget: int, seed: int, n: int) -> np.ndarray:
     objective.space = space  # type: ignore[attr-defined]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        identify(objective, decoder, grid, budget=budget, seed=seed, method="bo", progress=False, posterior=None)
+        identify(objective, decoder, grid, budget=budget, seed=seed, proposer="bo", progress=False, posterior=None)
     return np.array(calls[:n])
 
 

@@ -130,8 +130,8 @@ def test_the_predictor_knows_an_effect_through_the_model(effect, values):
     theta = _theta([effect], **values)
     data = simulate(theta, controller=FlopController(0.0), duration=1.2, effects=[effect])
     plain_data = simulate(controller=FlopController(0.0), duration=1.2)
-    floor = TrajectoryObjective(plain_data, n_workers=0)(None)
-    wrong = TrajectoryObjective(data, n_workers=0)
+    floor = TrajectoryObjective(plain_data, loss="norm", n_workers=0)(None)
+    wrong = TrajectoryObjective(data, loss="norm", n_workers=0)
     right = wrong.with_effects([effect])(theta)
     assert right < 3.0 * floor
     assert wrong(None) > 5.0 * right

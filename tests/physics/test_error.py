@@ -15,7 +15,7 @@ ONE_STEP_BLIND = {"motor_friction"}
 
 
 def test_one_step_error_is_near_zero_at_the_truth_and_grows_along_each_parameter(space, flop_data):
-    E = TrajectoryObjective(flop_data)
+    E = TrajectoryObjective(flop_data, loss="norm")
     e0 = E(space.nominal)
     n_compared = int(np.isfinite(E.per_sample(space.nominal)[0]).sum())
     assert e0 / n_compared < 1e-4           # < 0.1 mm per sample over 36 coordinates
@@ -28,7 +28,7 @@ def test_one_step_error_is_near_zero_at_the_truth_and_grows_along_each_parameter
 
 @pytest.mark.slow
 def test_rollout_error_grows_along_every_parameter(space, flop_data):
-    E = TrajectoryObjective(flop_data, horizon="rollout")
+    E = TrajectoryObjective(flop_data, horizon="rollout", loss="norm")
     e0 = E(space.nominal)
     assert e0 < 0.01
     for name in space.names:
@@ -39,7 +39,7 @@ def test_rollout_error_grows_along_every_parameter(space, flop_data):
 def test_estimated_velocities_leave_a_small_floor(space, flop_data):
     """Without recorded velocities the backward-difference estimate costs accuracy, but the truth
     still wins against 5 % errors in the strongest parameters."""
-    E = TrajectoryObjective(flop_data.drop_vars("velocities"))
+    E = TrajectoryObjective(flop_data.drop_vars("velocities"), loss="norm")
     e0 = E(space.nominal)
     for name in ("density", "stiffnessActive", "pretension"):
         assert E(space.replace(**{name: space[name].nominal * 1.05})) > e0
@@ -47,7 +47,7 @@ def test_estimated_velocities_leave_a_small_floor(space, flop_data):
 
 def test_horizons_and_actuator_sources_agree_at_the_truth(space, flop_data):
     for kwargs in (dict(horizon=10), dict(actuators="measured"), dict(actuators="auto")):
-        assert TrajectoryObjective(flop_data, **kwargs)(space.nominal) < 0.05
+        assert TrajectoryObjective(flop_data, loss="norm", **kwargs)(space.nominal) < 0.05
 
 
 def test_missing_samples_are_skipped(space, flop_data):

@@ -214,7 +214,7 @@ def test_model_and_simulate_validation():
     with pytest.raises(ParameterError, match="exceeds the cable length"):
         T6Model(ParameterSpace.t6().replace(pretension=2000.0))
     with pytest.raises(ParameterError, match="whole number of physics steps"):
-        simulate(duration=0.1, sample_rate=300.0)
+        simulate(duration=0.1, sample_rate=300.0, options=ModelOptions(dt=0.002))
     with pytest.raises(ParameterError, match="explicit seed"):
         simulate(duration=0.1, noise=0.01)
     with pytest.raises(ParameterError, match="duration"):

@@ -56,8 +56,8 @@ def test_the_lookahead_prefers_a_flop_into_the_disc_to_a_safe_nudge() -> None:
     nudge always costs a flop, the flop costs none two times in three)."""
     goal = np.array([0.9, 0.0])
     rs = _set([[(0.05, False)] * 3, [(0.7, True), (0.7, True), (-0.3, True)]])
-    one = score(rs, goal, objective="cvar", level=0.5, horizon=1)[0]
-    two = score(rs, goal, objective="cvar", level=0.5, horizon=2, radius=0.5)[0]
+    one = score(rs, goal, risk="cvar", level=0.5, horizon=1)[0]
+    two = score(rs, goal, risk="cvar", level=0.5, horizon=2, radius=0.5)[0]
     assert np.argmax(one) == 0 and np.argmax(two) == 1
     assert np.all(two <= 0)                                          # −flops to go
     with pytest.raises(PlannerError, match="horizon"):

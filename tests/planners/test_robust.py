@@ -1,4 +1,4 @@
-"""Robust planning: CVaR on known numbers, the objectives' choices, typed errors, determinism, parallel = serial."""
+"""Robust planning: CVaR on known numbers, the risk measures' choices, typed errors, determinism, parallel = serial."""
 from __future__ import annotations
 
 import numpy as np
@@ -50,12 +50,12 @@ def _set(rows: list[list[float]]) -> RolloutSet:
     return RolloutSet(acts, np.zeros((len(rows[0]), 15)), outs, (None,) * len(rows), start)
 
 
-def test_objectives_trade_mean_for_tail() -> None:
+def test_risk_measures_trade_mean_for_tail() -> None:
     rs = _set([[0.7, 0.7, 0.0], [0.4, 0.4, 0.4]])   # action 0: better mean, fails once; action 1: safe
     goal = np.array([5.0, 0.0])
-    assert np.argmax(score(rs, goal, objective="expected")[0]) == 0
-    assert np.argmax(score(rs, goal, objective="cvar", level=1 / 3)[0]) == 1
-    s, _, success = score(rs, goal, objective="success", threshold=0.2)
+    assert np.argmax(score(rs, goal, risk="expected")[0]) == 0
+    assert np.argmax(score(rs, goal, risk="cvar", level=1 / 3)[0]) == 1
+    s, _, success = score(rs, goal, risk="success", threshold=0.2)
     assert np.argmax(s) == 1 and success.mean(axis=1) == pytest.approx([2 / 3, 1.0])
 
 
