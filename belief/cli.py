@@ -375,5 +375,6 @@ def run_identify(args: argparse.Namespace) -> int:
         json.dump(result.config["prior_box"], fh, indent=1)
     print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
     print(result.summary(truth=truth))
-    print(f"wrote {args.out}/result.nc, summary.txt, marginals.csv, history.csv, prior_box.json and figures")
+    print(f"wrote {args.out}/report.html (one page to hand on), result.nc, summary.txt, marginals.csv, history.csv, "
+          "prior_box.json and figures")
     return 0

@@ -76,6 +76,7 @@ from belief.result import IdentificationResult, history_dataset
 from belief.surrogate import SurrogateConfig
 from belief.verdicts import VerdictConfig
 from embeddings.base import Decoder
+from embeddings.identity import Identity
 from physics.objective import Objective, ObjectiveFunction, as_objective
 from physics.parameters import ParameterSpace
 
@@ -288,7 +289,7 @@ def search(
     jr = Journal(journal, fp) if journal is not None else None
     try:
         out = run(objective, decoder, grid, chooser, Budget(n_target, time_budget, n_init, int(q)), journal=jr,
-                  progress=progress, label=f"identify[{_label(chooser)}]",
+                  progress=progress, label=_label(chooser, decoder),
                   after_batch=_callback_hook(callback, objective, grid, pcfg, seed), carried=tuple(carry))
     finally:
         if jr is not None:
@@ -297,10 +298,12 @@ def search(
                    vcfg=verdict_config, extra={"budget": budget, "time_budget": time_budget})
 
 
-def _label(proposer: Proposer) -> str:
-    """The progress bar's name of a proposer: its config's ``kind``, else its class name."""
-    kind = proposer.config().get("kind")
-    return str(kind) if kind else type(proposer).__name__
+def _label(proposer: Proposer, decoder: Decoder) -> str:
+    """The progress bar's name of a search: what it searches and how, e.g. ``identify[bo, full space]``
+    or ``identify[random, 5-D DynamicsAutoencoder]`` (the proposer config's ``kind``, else its class)."""
+    kind = proposer.config().get("kind") or type(proposer).__name__
+    where = "full space" if isinstance(decoder, Identity) else f"{decoder.dim}-D {type(decoder).__name__}"
+    return f"identify[{kind}, {where}]"
 
 
 def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: DriverResult, *, space: ParameterSpace,

@@ -33,6 +33,11 @@ data sets ``nominal`` (scenario ``none``), ``slope``, ``marker_offset``, ``drag`
 models it (TESTBED_TRUTH) is; rows go to benchmarks/results/effects-testbed.jsonl.
 
     .venv/bin/python benchmarks/effects.py --source testbed --seeds 2
+    .venv/bin/python benchmarks/effects.py --source testbed --mismatch --seeds 1   # mismatch stage first
+
+``--mismatch`` runs diagnose's mismatch stage (criticism.mismatch) before the first identification,
+so effects are searched on the model it augments; rows record the components it kept and its
+held-out ratios, and go to a file of their own (``...-mismatch.jsonl``).
 
 Runs go seed by seed over the scenarios; a (scenario, seed, --held-out, --budget) already in
 ``--out`` is skipped, so an interrupted run resumes and a rerun prints the table of its rows.
@@ -48,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from criticism import DiagnoseConfig, diagnose
+from criticism.mismatch import MismatchConfig
 from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, model_space
 
@@ -121,24 +127,28 @@ def testbed_data(name: str, seed: int) -> tuple[list, list[str], dict]:
     return data, [TESTBED_TRUTH[name]] if TESTBED_TRUTH[name] else [], truth["effects"]
 
 
-def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own") -> dict:
+def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
+            mismatch: bool = False) -> dict:
     if source == "testbed":
         data, truth_names, true_values = testbed_data(name, seed)
         return diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
-                            larger=truth_names[0] if truth_names else None)
+                            larger=truth_names[0] if truth_names else None, mismatch=mismatch)
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
     return diagnose_row(name, seed, budget, data, [e.name for e in effects],
-                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger)
+                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
+                        mismatch=mismatch)
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
-                 held_out: str, larger: str | None) -> dict:
-    """Diagnose on data[0:2], hold out data[2]; the benchmark's row (JSON-ready)."""
+                 held_out: str, larger: str | None, mismatch: bool = False) -> dict:
+    """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``); the
+    benchmark's row (JSON-ready)."""
     passes = 2 if name in MIXES else 1
     start = time.perf_counter()
-    d = diagnose(data, held_out=[2], config=DiagnoseConfig(budget=budget, passes=passes, seed=seed), progress=False)
+    config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None)
+    d = diagnose(data, held_out=[2], config=config, progress=False)
     first = d.passes[0].criticism
     top = first.ranking[0] if first.ranking else None
     row = {"scenario": name, "seed": seed, "truth": truth, "top": top.name if top else None,
@@ -151,7 +161,9 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
                           for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],
            "held_before": sum(d.passes[0].held_before.values()), "seconds": time.perf_counter() - start,
-           "true_values": true_values, "held_out": held_out, "larger": larger}
+           "true_values": true_values, "held_out": held_out, "larger": larger, "mismatch": mismatch,
+           "stage": None if d.mismatch is None else {"kept": [e.name for e in d.mismatch.effects],
+                                                     "ratios": d.mismatch.ratios()}}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
     return row
@@ -224,8 +236,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenarios", nargs="*", default=None,
                     help="default: every catalog effect, none, outside, mix, actuator+contact (own); every "
                     "testbed data set (testbed)")
+    ap.add_argument("--mismatch", action="store_true", help="run diagnose's mismatch stage first")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
-                    "benchmarks/results/effects-{held-out}.jsonl)")
+                    "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     args = ap.parse_args(argv)
     if args.summarize:
         summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
@@ -235,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
                           else [e.name for e in catalog()] + ["none", "outside", "mix", "actuator+contact"])
     if args.source == "testbed":
         args.held_out = "testbed"
-    out = Path(args.out or f"benchmarks/results/effects-{args.held_out}.jsonl")
+    out = Path(args.out or f"benchmarks/results/effects-{args.held_out}{'-mismatch' if args.mismatch else ''}.jsonl")
     out.parent.mkdir(parents=True, exist_ok=True)
     saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
     done = {(r["scenario"], r["seed"], r.get("held_out", "heading"), r.get("budget")) for r in saved}
@@ -246,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in args.scenarios:
             if (name, seed, args.held_out, args.budget) in done:
                 continue
-            row = {**run_one(name, seed, args.budget, args.held_out, args.source), "budget": args.budget}
+            row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch), "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")

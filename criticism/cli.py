@@ -14,6 +14,9 @@ from belief.errors import JournalError
 from belief.journal import run_with_journals
 from criticism.diagnose import DiagnoseConfig, diagnose
 from criticism.errors import CriticismError
+from criticism.html_report import write_diagnose_report
+from criticism.limits import require_diagnosable
+from criticism.mismatch import MismatchConfig
 from criticism.report import diagnosis_text, write_report
 from physics.cli_check import preflight
 from physics.effects import EFFECT_TYPES
@@ -47,8 +50,13 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--candidates", type=int, default=2048, help="Sobol candidates per identification")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-progress", action="store_true", help="hide progress bars")
+    p.add_argument("--mismatch", action="store_true",
+                   help="first absorb the engine mismatch: re-tune the T6 and add the component changes (actuator law, "
+                        "cable anchors, end caps) that make it reproduce the data (criticism.mismatch), then search "
+                        "the effects on that model")
     p.add_argument("--skip-checks", action="store_true",
-                   help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
+                   help="do not stop on the data checks' errors, nor on what diagnose cannot use (a robot not at "
+                        "rest at the start, jumping markers; tensegrid check; docs/diagnose.md)")
     p.add_argument("--resume", action="store_true",
                    help="continue the journals in OUT (an error when missing or of another problem); without it a "
                         "journal of another problem is set aside (identify_pass0.1.sqlite) and the run starts afresh")
@@ -92,8 +100,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     check_output_dir(args.out)
     _check_prior_box(args)
     data = [load_trajectory(path) for path in args.data]
-    if not getattr(args, "skip_checks", False):
-        preflight(data, args.data, "diagnose")       # raises DataCheckError (exit 2) before any identification
+    if not args.skip_checks:                          # DataCheckError (exit 2) before any identification
+        require_diagnosable(preflight(data, args.data, "diagnose"))
     options = dt_option(getattr(args, "dt", None), data, name="--dt")   # StepSizeError before any identification
     for path, ds in zip(args.data, data, strict=True):
         print(f"{path}: " + "; ".join(describe_trajectory(ds)))
@@ -104,7 +112,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
             raise ParameterError(f"unknown effect(s) {unknown}; known effects are {sorted(EFFECT_TYPES)}.")
         effects = [EFFECT_TYPES[name]() for name in args.effects]
     config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates,
-                            horizon=args.horizon, seed=args.seed)
+                            horizon=args.horizon, seed=args.seed, mismatch=MismatchConfig() if args.mismatch else None)
     _before_run(args, config)
     with output_dir(args.out):          # removed again if the run fails before writing into it
         diagnosis = run_with_journals(
@@ -112,8 +120,6 @@ def run_diagnose(args: argparse.Namespace) -> int:
                              options=options, progress=not args.no_progress),
             resume=args.resume, say=_note)
     print(diagnosis_text(diagnosis))
-    from criticism.html_report import write_diagnose_report
-
     for path in [*write_report(diagnosis, data, args.out), write_diagnose_report(args.out, diagnosis, data, args)]:
         print(f"wrote {path}")
     return 0

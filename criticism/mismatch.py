@@ -269,7 +269,7 @@ def _extend(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], effect
     """``objective`` with ``effect`` added, its effects sorted by their place in ``order`` (an
     actuator replacement before the effects that wrap the actuator), and the start of its
     re-tuning: of ``thetas`` (each (D,), carried over by parameter name, the new parameters at
-    their nominal values) the one with the lowest error on the ``fit`` segments. The model's
+    their data-read start, Effect.start) the one with the lowest error on the ``fit`` segments. The model's
     re-tuned θ was tuned for the component being replaced (a motor model's parameters stand in
     for what it lacks), so the stage's own start θ0 is the other candidate."""
     rank = {name: k for k, name in enumerate(order)}
@@ -278,7 +278,7 @@ def _extend(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], effect
     starts = []
     for theta in thetas:
         values = dict(zip(objective.space.names, np.asarray(theta, float).tolist(), strict=True))
-        values.update({p.name: p.nominal for p in effect.parameters()})
+        values.update(effect.start(objective.trajectories))
         starts.append(np.array([values[n] for n in extended.space.names]))
     scores = extended.evaluate_batch(np.array(starts))
     ok = [k for k, status in enumerate(scores.status) if status == "ok"]

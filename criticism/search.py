@@ -198,9 +198,11 @@ def fit_effect(objective: Objective, theta: np.ndarray, indices: Sequence[int], 
 
 def _effect_theta(objective: EffectObjective, theta: np.ndarray,
                   effect: Effect) -> tuple[EffectObjective, np.ndarray, list[int]]:
-    """The objective with ``effect`` added, θ extended by the effect's starting values, and their indices."""
+    """The objective with ``effect`` added, θ extended by the effect's starting values (read from the
+    data where the effect can, Effect.start), and their indices."""
     extended = objective.with_effects(tuple(objective.effects) + (effect,))
-    start = [p.nominal for p in effect.parameters()]
+    values = effect.start(objective.trajectories)
+    start = [values[p.name] for p in effect.parameters()]
     return extended, np.r_[theta, start], list(range(len(theta), len(theta) + len(start)))
 
 

@@ -36,6 +36,10 @@ TIME_UNITS = ((1.0, "seconds"), (1e-3, "milliseconds"), (1e-6, "microseconds"))
 JITTER_TOLERANCE = 1e-6
 #: Fastest plausible node speed between two samples [m/s].
 MAX_NODE_SPEED = 10.0
+#: A sample farther than max(SPIKE_MIN, SPIKE_ACCELERATION dt² / 2) [m] from the midpoint of its two
+#: neighbours is a glitch: a flopping T6's nodes stay within about 2 mm of it at 100 Hz.
+SPIKE_MIN = 0.01
+SPIKE_ACCELERATION = 200.0
 
 
 def _t6_box(space: ParameterSpace, name: str) -> tuple[float, float, float]:
@@ -158,17 +162,29 @@ def check_dropouts(nodes: np.ndarray, time: np.ndarray) -> list[Finding]:
 
 
 def check_jumps(nodes: np.ndarray, time: np.ndarray) -> list[Finding]:
-    """Node steps faster than MAX_NODE_SPEED between consecutive samples: speed |x_i+1 - x_i| / (t_i+1 - t_i)
-    [m/s] from nodes (T x 12 x 3) [m] and time (T,) [s]; NaN samples are not compared."""
+    """Marker glitches: node steps faster than MAX_NODE_SPEED between consecutive samples (speed
+    |x_i+1 - x_i| / (t_i+1 - t_i) [m/s]), and spikes, samples off the midpoint of their neighbours by
+    more than the SPIKE_MIN / SPIKE_ACCELERATION limit; nodes (T x 12 x 3) [m], time (T,) [s]; NaN
+    samples are not compared."""
     steps = np.linalg.norm(np.diff(nodes, axis=0), axis=-1)
-    speed = steps / np.diff(time)[:, None]
-    fast = np.nan_to_num(speed, nan=0.0) > MAX_NODE_SPEED
-    if not fast.any():
+    speed = np.nan_to_num(steps / np.diff(time)[:, None], nan=0.0)
+    fast = speed > MAX_NODE_SPEED
+    dt = float(np.median(np.diff(time))) if len(time) > 1 else 0.0
+    limit = max(SPIKE_MIN, 0.5 * SPIKE_ACCELERATION * dt**2)
+    off = np.nan_to_num(np.linalg.norm(nodes[1:-1] - 0.5 * (nodes[:-2] + nodes[2:]), axis=-1), nan=0.0)
+    spikes = off > limit
+    if not fast.any() and not spikes.any():
         return []
-    i, k = np.unravel_index(int(np.argmax(np.where(fast, speed, -np.inf))), speed.shape)
-    where = f"node {k} between t = {time[i]:.3f} and {time[i + 1]:.3f} s"
-    return [Finding("jumps", "warning", f"{int(fast.sum())} node steps faster than {MAX_NODE_SPEED:g} m/s; the "
-                    f"fastest: {where}, {speed[i, k]:.3g} m/s ({steps[i, k]:.3f} m in one sample).",
+    if fast.any():
+        i, k = np.unravel_index(int(np.argmax(np.where(fast, speed, -np.inf))), speed.shape)
+        worst = (f"the fastest: node {k} between t = {time[i]:.3f} and {time[i + 1]:.3f} s, {speed[i, k]:.3g} m/s "
+                 f"({steps[i, k]:.3f} m in one sample)")
+    else:
+        i, k = np.unravel_index(int(np.argmax(off)), off.shape)
+        worst = f"the largest: node {k} at t = {time[i + 1]:.3f} s, {1e3 * off[i, k]:.0f} mm off its neighbours"
+    return [Finding("jumps", "warning", f"{int(fast.sum())} node steps faster than {MAX_NODE_SPEED:g} m/s and "
+                    f"{int(spikes.sum())} samples more than {1e3 * limit:.0f} mm off the midpoint of their "
+                    f"neighbours; {worst}.",
                     "a marker glitched or was swapped there: set those samples to NaN (they are then skipped).")]
 
 

@@ -5,6 +5,8 @@ T x 24 [m as the file gives them]) and returns a list of :class:`~physics.findin
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from physics.findings import Finding, Severity
@@ -13,7 +15,7 @@ from physics.ground import GroundPlane, plane_below, rest_window
 from physics.labels import find_rod_pairs, flip_rod_ends, pair_distances, relabel_order, rod_lengths
 
 __all__ = ["check_rod_labels", "check_ground", "check_controls", "ROD_TOLERANCE", "RIGID_SPREAD", "LEVEL_DEG",
-           "TILT_DEG", "LENGTH_UNITS"]
+           "TILT_DEG", "REST_MOTION", "LENGTH_UNITS"]
 
 #: A rod whose median length differs from the others' by more than this is mislabelled [m].
 ROD_TOLERANCE = 0.1
@@ -23,6 +25,8 @@ RIGID_SPREAD = 0.03
 LEVEL_DEG = 10.0
 #: A floor tilted by more than this from z is reported as sloped [deg].
 TILT_DEG = 1.0
+#: A node that moves more than this over the rest window means the robot is not at rest [m].
+REST_MOTION = 0.01
 #: Offset of the floor from z = 0 that is reported as a warning and as an error [m].
 HEIGHT_WARN, HEIGHT_ERROR = 0.03, 0.1
 #: Unit factors tried for lengths: (metres per unit, name).
@@ -92,6 +96,12 @@ def check_ground(nodes: np.ndarray, time: np.ndarray, controls: np.ndarray | Non
     if up is None:
         return [Finding("ground", "warning", "fewer than three nodes are seen at rest; no ground plane.",
                         "start the recording with the robot at rest and all markers visible.")], None
+    moved = rest_motion(nodes[window])
+    if moved > REST_MOTION:
+        seconds = time[window[-1]] - time[0]
+        return [Finding("not-at-rest", "warning", f"a node moves {1e3 * moved:.0f} mm in the first {seconds:.2f} s, "
+                        "before any command: the robot is not at rest, so no floor can be read from it.",
+                        "start the recording with the robot resting on a face for 0.2 s.")], up
     level = {k: p for k, p in planes.items() if p is not None and p.tilt_deg <= LEVEL_DEG}
     best = min(level, key=lambda k: abs(level[k].contact_height - radius)) if level else None
     if best is not None and best != "+z" and ("+z" not in level or best == "-z"):
@@ -114,10 +124,10 @@ def check_ground(nodes: np.ndarray, time: np.ndarray, controls: np.ndarray | Non
         slope_x, slope_y = np.arcsin(up.normal[:2])
         out.append(Finding("ground-tilt", "warning", f"the floor is tilted {up.tilt_deg:.1f} deg from level (normal "
                            f"({normal}) in the world frame): a sloped floor, or a frame not aligned with gravity; the "
-                           "model's ground is the plane z = 0.", "if the frame is tilted, rotate z onto gravity; "
-                           "if the floor slopes, rotate the nodes into the floor's frame (z along the normal) and "
-                           "model gravity along the slope with the ground_slope effect (slope_x ~ "
-                           f"{slope_x:+.3f}, slope_y ~ {slope_y:+.3f} rad; tensegrid diagnose searches for it)."))
+                           "bare model's ground is the plane z = 0.", "if the frame is tilted, rotate z onto gravity; "
+                           "if the floor slopes, keep the world frame and add the ground_slope effect, a floor "
+                           f"tilted under vertical gravity (slope_x ~ {slope_x:+.3f}, slope_y ~ {slope_y:+.3f} rad; "
+                           "tensegrid diagnose starts its search there)."))
     offset = up.contact_height - radius
     if abs(offset) > HEIGHT_WARN:
         severity: Severity = "error" if abs(offset) > HEIGHT_ERROR else "warning"
@@ -125,6 +135,18 @@ def check_ground(nodes: np.ndarray, time: np.ndarray, controls: np.ndarray | Non
                            f"{up.contact_height:.3f} m minus the end-cap radius {radius:.3f} m), not at 0.",
                            f"shift the frame: ds['nodes'].loc[dict(axis='z')] -= {offset:.3f}."))
     return out, up
+
+
+def rest_motion(window: np.ndarray) -> float:
+    """Largest node displacement [m] over a rest window (K x 12 x 3): the mean of its last quarter
+    minus that of its first (averaging keeps marker noise out); 0 for fewer than two samples."""
+    if len(window) < 2:
+        return 0.0
+    q = max(1, len(window) // 4)
+    with warnings.catch_warnings():             # a node never seen in a quarter: NaN, left out below
+        warnings.simplefilter("ignore", RuntimeWarning)
+        shift = np.nanmean(window[-q:], axis=0) - np.nanmean(window[:q], axis=0)
+    return float(np.nan_to_num(np.linalg.norm(shift, axis=-1), nan=0.0).max())
 
 
 def _cable_lengths_at_rest(nodes: np.ndarray, time: np.ndarray, controls: np.ndarray) -> np.ndarray:

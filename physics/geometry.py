@@ -21,7 +21,7 @@ from physics.errors import PhysicsError
 __all__ = [
     "N_RODS", "N_NODES", "N_CABLES", "ROD_NODES", "CABLE_NODES", "CABLE_NAMES",
     "node_positions", "closed_faces", "RodMassProperties", "rod_mass_properties",
-    "rotation_onto_face", "rod_poses_from_nodes",
+    "rotation_onto_face", "rotation_between", "rod_poses_from_nodes",
 ]
 
 N_RODS = 6
@@ -69,9 +69,14 @@ def rotation_onto_face(nodes: np.ndarray, face: tuple[int, int, int]) -> np.ndar
     normal /= np.linalg.norm(normal)
     if normal @ tri.mean(axis=0) < 0:          # make it point away from the centre
         normal = -normal
-    target = np.array([0.0, 0.0, -1.0])
-    axis = np.cross(normal, target)
-    sin, cos = np.linalg.norm(axis), float(normal @ target)
+    return rotation_between(normal, np.array([0.0, 0.0, -1.0]))
+
+
+def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3 x 3) that turns the unit vector ``a`` (3,) onto the unit vector ``b`` (3,)
+    about their common normal (Rodrigues' formula); a half turn about x when they are opposite."""
+    axis = np.cross(a, b)
+    sin, cos = np.linalg.norm(axis), float(a @ b)
     if sin < 1e-12:
         return np.eye(3) if cos > 0 else np.diag([1.0, -1.0, -1.0])
     k = axis / sin

@@ -49,6 +49,7 @@ from physics.geometry import (
     node_positions,
     rod_mass_properties,
     rod_poses_from_nodes,
+    rotation_between,
     rotation_onto_face,
 )
 from physics.parameters import ParameterSpace
@@ -198,7 +199,10 @@ class T6Model:
         world.addSkeleton(robot)
         if opt.ground:
             ground = dart.dynamics.Skeleton("ground")
-            _, gbody = ground.createWeldJointAndBodyNodePair(None)
+            joint, gbody = ground.createWeldJointAndBodyNodePair(None)
+            pose = dart.math.Isometry3()          # the box's top face: the plane through 0 normal to ground_normal
+            pose.set_rotation(rotation_between(np.array([0.0, 0.0, 1.0]), self.setup.ground_normal))
+            joint.setTransformFromParentBodyNode(pose)
             box = gbody.createShapeNode(dart.dynamics.BoxShape([100.0, 100.0, 1.0]))
             box.setRelativeTranslation([0.0, 0.0, -0.5])
             box.createCollisionAspect()
@@ -226,8 +230,9 @@ class T6Model:
         nodes = node_positions(p["rod_length"], p["rod_space"])
         nodes = nodes @ rotation_onto_face(nodes, _FACES[self.options.face]).T
         nodes[:, :2] -= nodes[:, :2].mean(axis=0)
-        if self.options.ground:
-            nodes[:, 2] += self.setup.cap_radius + self.options.drop_height - nodes[:, 2].min()
+        if self.options.ground:               # lift along z until the lowest cap is drop_height off the floor
+            n = self.setup.ground_normal
+            nodes[:, 2] += (self.setup.cap_radius + self.options.drop_height - (nodes @ n).min()) / n[2]
         return nodes
 
     def reset(self) -> None:

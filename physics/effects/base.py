@@ -22,7 +22,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -30,6 +30,9 @@ from physics.actuators import Actuator, MotorActuator, MotorGains
 from physics.cables import CableLaw
 from physics.errors import ParameterError
 from physics.parameters import Parameter, ParameterSpace
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["Effect", "ModelSetup", "ForceTerm", "model_space", "split_theta"]
 
@@ -41,7 +44,9 @@ ForceTerm = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
 class ModelSetup:
     """Everything an effect may change, read by :class:`physics.tensegrity.T6Model` when it builds
     and steps its world. Shapes: gravity (3,) [m/s²], observation_offset (3,) [m]; point_masses
-    holds (rod index, mass [kg], position along the rod axis from its centre [m])."""
+    holds (rod index, mass [kg], position along the rod axis from its centre [m]); ground_normal
+    (3,) the unit normal of the ground plane through the world origin (z up, the data contract's
+    world frame: a sloped floor tilts the plane, gravity stays along −z)."""
 
     gravity: np.ndarray
     cap_radius: float
@@ -54,6 +59,7 @@ class ModelSetup:
     point_masses: list[tuple[int, float, float]] = field(default_factory=list)
     force_terms: list[ForceTerm] = field(default_factory=list)
     observation_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    ground_normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
     @classmethod
     def base(cls, params: Mapping[str, float], gravity: float, gains: MotorGains, dt: float) -> ModelSetup:
@@ -90,6 +96,11 @@ class Effect(abc.ABC):
     def off(self) -> dict[str, float] | None:
         """Parameter values that make the model equal to the model without the effect, or None."""
         return {p.name: p.nominal for p in self.parameters()} if self.switchable else None
+
+    def start(self, trajectories: Sequence[xr.Dataset]) -> dict[str, float]:
+        """Where a fit of the effect's parameters starts on these observed trajectories: values the
+        data show directly (a floor's tilt at rest), else the nominal ones; always inside the box."""
+        return {p.name: p.nominal for p in self.parameters()}
 
     def config(self) -> dict:
         """A JSON-able description: the effect's name and its options."""

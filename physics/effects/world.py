@@ -1,34 +1,53 @@
-"""Effects on the world's setup: a tilted ground, the end caps' contact radius, a point mass on a rod."""
+"""Effects on the world's setup: a sloped floor, the end caps' contact radius, a point mass on a rod."""
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
+import xarray as xr
 
 from physics.effects.base import Effect, ModelSetup
 from physics.errors import ParameterError
+from physics.ground import ground_plane
 from physics.parameters import Parameter
 
-__all__ = ["GroundSlope", "EndCapRadius", "PointMass"]
+__all__ = ["GroundSlope", "slope_normal", "EndCapRadius", "PointMass"]
 
 
 class GroundSlope(Effect):
-    """The ground descends by ``slope_x`` along +x and ``slope_y`` along +y [rad].
+    """The floor descends by ``slope_x`` along +x and ``slope_y`` along +y [rad], in the world frame.
 
-    In the ground's frame (the frame of the observations, z normal to the ground) gravity tilts:
-    g⃗ = g (sin slope_x, sin slope_y, -sqrt(1 - sin² slope_x - sin² slope_y))."""
+    The data contract's frame is the world's (z up, gravity along −z), so a sloped floor is a
+    tilted ground plane through the origin, not a tilted gravity: its unit normal is
+    n = (sin slope_x, sin slope_y, sqrt(1 − sin² slope_x − sin² slope_y)) and gravity stays −g ẑ.
+    The resting robot's contact nodes then lie on a plane with that normal, which the data show
+    at rest (physics.ground.ground_plane: slope_x = arcsin n_x, slope_y = arcsin n_y)."""
 
     name = "ground_slope"
-    description = "ground tilted about the x and y axes"
+    description = "floor tilted about the x and y axes (world frame, gravity -z)"
 
     def parameters(self) -> tuple[Parameter, ...]:
-        return (Parameter("slope_x", "rad", 0.0, -0.15, 0.15, "ground descends along +x", minimum=-np.inf),
-                Parameter("slope_y", "rad", 0.0, -0.15, 0.15, "ground descends along +y", minimum=-np.inf))
+        return (Parameter("slope_x", "rad", 0.0, -0.15, 0.15, "floor descends along +x", minimum=-np.inf),
+                Parameter("slope_y", "rad", 0.0, -0.15, 0.15, "floor descends along +y", minimum=-np.inf))
 
     def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
-        g = float(np.linalg.norm(setup.gravity))
-        sx, sy = np.sin(values["slope_x"]), np.sin(values["slope_y"])
-        setup.gravity = g * np.array([sx, sy, -np.sqrt(max(0.0, 1.0 - sx * sx - sy * sy))])
+        setup.ground_normal = slope_normal(float(values["slope_x"]), float(values["slope_y"]))
+
+    def start(self, trajectories: Sequence[xr.Dataset]) -> dict[str, float]:
+        """The slope of the plane the resting robot's contact nodes lie on (physics.ground), median
+        over the trajectories that start at rest, clipped to the box; nominal (level) without one."""
+        planes = [p for p in (ground_plane(ds) for ds in trajectories) if p is not None]
+        if not planes:
+            return super().start(trajectories)
+        normal = np.median([p.normal for p in planes], axis=0)
+        return {q.name: float(np.clip(np.arcsin(v), q.lower, q.upper))
+                for q, v in zip(self.parameters(), normal[:2], strict=True)}
+
+
+def slope_normal(slope_x: float, slope_y: float) -> np.ndarray:
+    """Unit normal (3,) of a floor descending by ``slope_x`` along +x and ``slope_y`` along +y [rad]."""
+    sx, sy = np.sin(slope_x), np.sin(slope_y)
+    return np.array([sx, sy, np.sqrt(max(0.0, 1.0 - sx * sx - sy * sy))])
 
 
 class EndCapRadius(Effect):

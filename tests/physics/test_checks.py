@@ -88,6 +88,18 @@ def _jump(ds: xr.Dataset) -> xr.Dataset:
     return _with_nodes(ds, values)
 
 
+def _glitch(ds: xr.Dataset) -> xr.Dataset:
+    values = ds["nodes"].values.copy()
+    values[30, 7, 0] += 0.03                  # 3 cm for one sample: 3 m/s, slower than MAX_NODE_SPEED
+    return _with_nodes(ds, values)
+
+
+def _moving(ds: xr.Dataset) -> xr.Dataset:
+    values = ds["nodes"].values.copy()
+    values += np.linspace(0.0, 0.3, len(values))[:, None, None] * np.array([1.0, 0.0, 0.0])
+    return _with_nodes(ds, values)             # sliding 0.6 m/s from the first sample: never at rest
+
+
 def _jitter(ds: xr.Dataset) -> xr.Dataset:
     shift = np.random.default_rng(0).uniform(-2e-4, 2e-4, ds.sizes["time"])
     return ds.assign_coords(time=("time", ds["time"].values + shift))
@@ -118,6 +130,8 @@ BAD: dict[str, tuple[Callable[[xr.Dataset], xr.Dataset], str, str]] = {
     "tilted 3 deg": (_tilted, "ground-tilt", "warning"),
     "NaN dropouts": (_dropouts, "dropouts", "warning"),
     "a jump": (_jump, "jumps", "warning"),
+    "a one-sample glitch": (_glitch, "jumps", "warning"),
+    "moving from the start": (_moving, "not-at-rest", "warning"),
     "jittered time": (_jitter, "time-jitter", "warning"),
     "controls are cable lengths": (_controls_are_cable_lengths, "controls-semantics", "warning"),
 }

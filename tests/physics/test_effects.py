@@ -10,6 +10,8 @@ from physics.effects import (
     EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, EndCapRadius, GroundSlope, NonlinearStiffness,
     PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
 )
+from physics.effects.world import slope_normal
+from physics.ground import ground_plane
 
 FREE = ModelOptions(gravity=0.0, ground=False, spin_damping=0.0)
 
@@ -76,14 +78,18 @@ def test_hysteresis_and_drag_dissipate(effect, values):
     assert np.abs(free - free[0]).max() < 0.01 * free[0]
 
 
-def test_a_tilted_ground_is_gravity_along_the_slope():
+def test_a_sloped_floor_keeps_gravity_vertical_and_tilts_the_ground_plane():
     effects = [GroundSlope()]
     model = T6Model(_theta(effects, slope_x=0.1), effects=effects, options=ModelOptions(ground=False))
     start = model.com()
-    model.step(None, n=200)                                   # 0.2 s of free fall
-    moved = model.com() - start
-    expected = 0.5 * 9.81 * 0.2**2 * np.array([np.sin(0.1), 0.0, -np.cos(0.1)])
-    np.testing.assert_allclose(moved, expected, atol=2e-3)
+    model.step(None, n=200)                                   # 0.2 s of free fall: straight down
+    np.testing.assert_allclose(model.com() - start, [0.0, 0.0, -0.5 * 9.81 * 0.2**2], atol=2e-3)
+    theta = _theta(effects, slope_x=0.06, slope_y=-0.04)
+    rest = simulate(theta, effects=effects, duration=0.3, settle=1.5, sample_rate=100)
+    plane = ground_plane(rest)                                # the data contract's world frame
+    assert plane is not None
+    assert np.degrees(np.arccos(plane.normal @ slope_normal(0.06, -0.04))) < 0.1
+    assert plane.height == pytest.approx(0.06, abs=2e-3)      # contact nodes one cap radius off the floor
 
 
 def test_point_mass_adds_mass_and_moves_the_centre_of_mass_toward_it():

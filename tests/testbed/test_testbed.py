@@ -175,3 +175,27 @@ def test_actuators_keep_tension_under_max_tens():
     robot.close()
     assert peak <= NOMINAL["maxTens"] * 1.02               # one step of travel past the clamp at most
     assert peak > 0.8 * NOMINAL["maxTens"]                   # and the command did pull hard
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_ground_plane_of_testbed_flops_on_a_3_degree_slope_and_on_flat_ground(seed: int) -> None:
+    """physics.ground on the foreign robot's files: on the 3° slope the plane's normal is within 0.3°
+    of the testbed's floor normal and its height within 3 mm of where the testbed's own nodes rest
+    above a floor through the origin (read off the settled robot); flat ground is level within 0.3°."""
+    from physics.ground import ground_plane
+    from testbed.datasets import cached_dataset
+
+    robot = _settled(seconds=2.0)
+    resting = float(np.sort(robot.nodes()[:, 2])[:3].mean())     # the contact nodes' height above the floor
+    robot.close()
+    truth = json.loads(Path(cached_dataset("slope", seed, noise=0.0002)["flop_0"]).with_name("truth.json").read_text())
+    normal = Effects(slope=truth["effects"]["slope"], slope_azimuth=truth["effects"]["slope_azimuth"]).ground_normal()
+    for name in ("slope", "nominal"):
+        for label, path in cached_dataset(name, seed, noise=0.0002).items():
+            plane = ground_plane(load_trajectory(path))
+            assert plane is not None, (name, label)
+            if name == "slope":
+                assert np.degrees(np.arccos(np.clip(plane.normal @ normal, -1, 1))) < 0.3, (label, plane)
+                assert abs(plane.height - resting) < 0.003, (label, plane.height, resting)
+            else:
+                assert plane.tilt_deg < 0.3, (label, plane)
