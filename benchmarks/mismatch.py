@@ -12,8 +12,9 @@ the components kept and their sizes, and on the held-out flop
 
 for the bare T6 at the nominal θ ("nominal"), the bare T6 re-tuned on the fit flops ("before",
 the floor diagnose starts from) and the augmented model re-tuned ("after"), and after / before.
-The last lines give the medians of the ratios and how many runs reach the issue's targets (both
-ratios at most 0.5).
+Then where the held-out one-step residual lives before and after (shares by phase and by frequency
+band, criticism.mismatch.localize), the medians of the ratios and how many runs reach the issue's
+targets (both ratios at most 0.5).
 
     .venv/bin/python benchmarks/mismatch.py --seeds 3 --first-seed 2           # nominal robots 2-4
     .venv/bin/python benchmarks/mismatch.py --dataset perturbed --seeds 2 --noise 0.001
@@ -71,6 +72,11 @@ def summarize(rows: list[dict]) -> None:
         print(f"{r['dataset']:10s} {r['seed']:4d}  {n['one_step']:10.4g} {b['one_step']:8.4g} {a['one_step']:8.4g} "
               f"{e_ratio:6.2f}  {1e3 * n['drift']:13.1f} {1e3 * b['drift']:7.1f} {1e3 * a['drift']:7.1f} "
               f"{d_ratio:6.2f}  {', '.join(r['kept']) or 'none'} ({sizes}); {len(r['at_bounds'])} at bounds")
+    for r in rows:
+        print(f"{r['dataset']} seed {r['seed']}: residual " + "; ".join(
+            f"{when} " + ", ".join(f"{k} {v['share']:.0%}" for k, v in w["phases"].items()) + ", "
+            + ", ".join(f"{k} {v:.0%}" for k, v in w["frequency_share"].items())
+            for when, w in (("before", r["where_before"]), ("after", r["where_after"]))))
     if ratios:
         arr = np.array(ratios)
         both = int(((arr[:, 0] <= 0.5) & (arr[:, 1] <= 0.5)).sum())

@@ -35,7 +35,8 @@ from numba import njit
 from physics.cables import cable_tensions
 from physics.errors import ParameterError
 
-__all__ = ["MotorGains", "motor_step", "rate_limited_step", "Actuator", "MotorActuator", "RateLimitedActuator"]
+__all__ = ["MotorGains", "motor_step", "rate_limited_step", "tension_limited_step", "Actuator", "MotorActuator",
+           "RateLimitedActuator", "TensionLimitedActuator"]
 
 
 @dataclass(frozen=True)
@@ -104,7 +105,33 @@ def rate_limited_step(rest: np.ndarray, speed: np.ndarray, target: np.ndarray, r
         speed[j] = d / dt
 
 
-_MOTOR, _RATE_LIMITED = 0, 1
+@njit(cache=True)
+def tension_limited_step(rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray,
+                         rate: float, max_tension: float, stiffness: float, min_rest: float, dt: float) -> None:
+    """NTRT's basic actuator: move each rest length toward its target at ``rate`` [m/s], but never
+    wind a cable past ``max_tension`` [N] (cable ``stiffness`` k [N/m]):
+    floor = L0 + (T - maxTens) / k, goal = max(L_pref, floor), L0' = max(L0 + clip(goal - L0,
+    ±rate dt), L0_min). Rest lengths (24,) [m] change in place; speed (24,) gets the rate of change
+    [m/s]; tension (24,) [N] is the cables' present tension (physics.effects.actuation)."""
+    step = rate * dt
+    for j in range(rest.shape[0]):
+        goal = target[j]
+        floor = rest[j] + (tension[j] - max_tension) / stiffness
+        if floor > goal:
+            goal = floor
+        d = goal - rest[j]
+        if d > step:
+            d = step
+        elif d < -step:
+            d = -step
+        r = rest[j] + d
+        if r < min_rest:
+            r = min_rest
+        speed[j] = (r - rest[j]) / dt
+        rest[j] = r
+
+
+_MOTOR, _RATE_LIMITED, _TENSION_LIMITED = 0, 1, 2
 
 
 @njit(cache=True)
@@ -113,7 +140,8 @@ def _follow(kind: int, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarr
             dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Rest lengths and speeds (T x m each) of an actuator (``kind``) driven along observed cable
     lengths and rates (T x m; lengths linear between samples, rates constant per interval), one
-    target row per physics step (substeps (T - 1) x m), tensions from physics.cables.cable_tensions."""
+    target row per physics step (substeps (T - 1) x m), tensions from physics.cables.cable_tensions;
+    ``motor`` holds the motor model's arguments (kind _MOTOR) or (maxTens, stiffness) first (_TENSION_LIMITED)."""
     n, m = lengths.shape
     rest, speed = rest0.copy(), np.zeros(m)
     tension, now = np.empty(m), np.empty(m)
@@ -132,6 +160,9 @@ def _follow(kind: int, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarr
             for j in range(m):
                 now[j] = (1.0 - w) * lengths[i, j] + w * lengths[i + 1, j]
             cable_tensions(now, rates[i], rest, law[0], law[1], law[2], law[3], tension)
+            if kind == _TENSION_LIMITED:      # motor = (maxTens, stiffness, ...)
+                tension_limited_step(rest, speed, target, tension, rate, motor[0], motor[1], min_rest, dt)
+                continue
             motor_step(rest, speed, target, tension, motor[0], motor[1], motor[2], motor[3], motor[4], motor[5],
                        motor[6], motor[7], motor[8])
     return rest_out, speed_out
@@ -194,4 +225,30 @@ class RateLimitedActuator:
                        self._dt)
 
     def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
+        return np.asarray(rate, float).copy()
+
+
+class TensionLimitedActuator:
+    """NTRT's basic actuator (:func:`tension_limited_step`) at speed ``rate`` [m/s], limit
+    ``max_tension`` [N] and cable stiffness ``stiffness`` [N/m]."""
+
+    def __init__(self, rate: float, max_tension: float, stiffness: float, gains: MotorGains, dt: float) -> None:
+        for name, value in (("rate", rate), ("max_tension", max_tension), ("stiffness", stiffness)):
+            if not (np.isfinite(value) and value > 0):
+                raise ParameterError(f"TensionLimitedActuator.{name} must be > 0, got {value!r}.")
+        self.rate, self.max_tension, self.stiffness = float(rate), float(max_tension), float(stiffness)
+        self._min, self._dt = gains.min_rest_length, float(dt)
+
+    def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
+        tension_limited_step(rest, speed, target, tension, self.rate, self.max_tension, self.stiffness, self._min,
+                             self._dt)
+
+    def follow(self, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
+               substeps: int, law: tuple) -> tuple[np.ndarray, np.ndarray]:
+        limits = (self.max_tension, self.stiffness) + (1.0,) * 7     # the rest unused by this kind
+        return _follow(_TENSION_LIMITED, lengths, rates, targets, rest0, substeps, law, limits, self.rate, self._min,
+                       self._dt)
+
+    def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
+        """Its speed state is the rest-length rate itself [m/s]."""
         return np.asarray(rate, float).copy()

@@ -21,9 +21,8 @@ from belief.least_squares import LeastSquaresConfig
 from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, absorb_mismatch, superseded
 from physics import FlopController, TrajectoryObjective, load_trajectory, simulate
-from physics.actuators import MotorGains
+from physics.actuators import MotorGains, tension_limited_step
 from physics.effects import CableAnchors, RateLimitedActuation, TensionLimitedActuation, model_space
-from physics.effects.actuation import tension_limited_step
 from physics.effects.anchors import anchor_forces
 from physics.errors import PhysicsError
 from physics.geometry import node_positions
