@@ -162,11 +162,44 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],
            "held_before": sum(d.passes[0].held_before.values()), "seconds": time.perf_counter() - start,
            "true_values": true_values, "held_out": held_out, "larger": larger, "mismatch": mismatch,
+           "estimates": d.passes[0].estimates(),
            "stage": None if d.mismatch is None else {"kept": [e.name for e in d.mismatch.effects],
                                                      "ratios": d.mismatch.ratios()}}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
     return row
+
+
+def _at_bound(effect: str, values: dict[str, float]) -> list[str]:
+    """The parameters of a fitted catalog effect within 1 % of the box width of a bound."""
+    out = []
+    for p in EFFECT_TYPES[effect]().parameters():
+        v, width = values.get(p.name), p.upper - p.lower
+        if v is not None and min(v - p.lower, p.upper - v) <= 0.01 * width:
+            out.append(f"{p.name} at its {'lower' if v - p.lower < p.upper - v else 'upper'} bound")
+    return out
+
+
+def testbed_size(effect: str, values: dict[str, float], truth: dict) -> str:
+    """The fitted size of a catalog effect next to the testbed's hidden one, in the testbed's terms
+    (slope: tilt [deg] and the angle between fitted and true floor normals; marker offset: its z
+    [mm]; delay [ms]; others in each one's own unit, the laws differing), flagged at a bound."""
+    if effect == "ground_slope":
+        from physics.effects.world import slope_normal
+        n = slope_normal(values["slope_x"], values["slope_y"])
+        a, t = truth["slope_azimuth"], truth["slope"]
+        true_n = np.array([-np.sin(t) * np.cos(a), -np.sin(t) * np.sin(a), np.cos(t)])
+        text = (f"tilt {np.degrees(np.arccos(n[2])):.2f} deg (true {np.degrees(t):.2f}), normals "
+                f"{np.degrees(np.arccos(np.clip(n @ true_n, -1, 1))):.2f} deg apart")
+    elif effect == "sensor_bias":
+        text = f"z offset {1e3 * values['sensor_bias_z']:.1f} mm (true {1e3 * truth['marker_offset'][2]:.1f})"
+    elif effect == "actuator_delay":
+        text = f"delay {1e3 * values['actuator_delay']:.0f} ms (true {1e3 * truth['actuator_delay']:.0f})"
+    else:
+        units = {p.name: p.unit for p in EFFECT_TYPES[effect]().parameters()}
+        fitted = ", ".join(f"{k}={v:.4g} {units[k]}" for k, v in values.items())
+        text = f"{fitted} (testbed, its own law and unit: " + ", ".join(f"{k}={v}" for k, v in truth.items()) + ")"
+    return "; ".join([text, *_at_bound(effect, values)])
 
 
 def summarize(rows: list[dict]) -> None:
@@ -195,6 +228,20 @@ def summarize(rows: list[dict]) -> None:
         print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(named):>5} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
               f"{ratio:>18} {est:>24} {str(second):>9}")
     details(rows)
+    sized = [r for r in rows if r.get("held_out") == "testbed" and r["truth"] and r["top"] == r["truth"][0]]
+    if sized:
+        print("\nsizes where the true effect is ranked first (testbed):")
+    for r in sized:
+        print(f"{r['scenario']} seed {r['seed']}{' (found)' if r['found'] else ''}: "
+              + testbed_size(r["top"], r["top_values"], r["true_values"]))
+        for name, e in (r.get("estimates") or {}).items():
+            print(f"    re-identified {name}: {e['value']:.4g} in [{e.get('lower', float('nan')):.4g}, "
+                  f"{e.get('upper', float('nan')):.4g}] ({e.get('verdict', '')}{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''})")
+    staged = [r for r in rows if r.get("stage")]
+    for r in staged:
+        ratios = r["stage"]["ratios"]
+        print(f"{r['scenario']} seed {r['seed']}: mismatch stage kept {', '.join(r['stage']['kept']) or 'nothing'}; "
+              f"held-out one-step {ratios['one_step']:.2f}x, drift {ratios['drift']:.2f}x")
 
 
 def details(rows: list[dict]) -> None:

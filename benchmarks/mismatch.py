@@ -12,7 +12,8 @@ the components kept and their sizes, and on the held-out flop
 
 for the bare T6 at the nominal θ ("nominal"), the bare T6 re-tuned on the fit flops ("before",
 the floor diagnose starts from) and the augmented model re-tuned ("after"), and after / before.
-Then where the held-out one-step residual lives before and after (shares by phase and by frequency
+Then the one-step error that observation noise alone leaves (:func:`noise_floor`) and the ratio of
+the errors above it; where the held-out one-step residual lives before and after (shares by phase and by frequency
 band, criticism.mismatch.localize), the medians of the ratios and how many runs reach the issue's
 targets (both ratios at most 0.5).
 
@@ -34,7 +35,8 @@ import numpy as np
 
 from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, absorb_mismatch, held_scores
-from physics import TrajectoryObjective, load_trajectory
+from physics import ReplayController, TrajectoryObjective, load_trajectory, simulate
+from physics.effects import EFFECT_TYPES
 
 LABELS = ("flop_0", "flop_1", "heldout_0")
 
@@ -50,13 +52,30 @@ def run_one(dataset: str, seed: int, noise: float, n_workers: int) -> dict:
         config = MismatchConfig()
         report = absorb_mismatch(objective, fit, [2], config=config, progress=False)
         nominal = held_scores(objective, objective.space.nominal, [2], config.drift_time)
-    return {"dataset": dataset, "seed": seed, "noise": noise, "kept": [e.name for e in report.effects],
+    row = {"dataset": dataset, "seed": seed, "noise": noise, "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
             "trials": [{"round": t.round, "name": t.name, "gain": t.gain, "values": t.values} for t in report.trials],
             "nominal": nominal.totals(), "before": report.before.totals(), "after": report.after.totals(),
             "at_bounds": [f"{b.name} {b.side}" for b in report.at_bounds], "names": list(report.names),
             "theta": report.theta.tolist(), "base_theta": report.base_theta.tolist(), "where_after": report.where_after,
             "where_before": report.where_before, "seconds": time.perf_counter() - start}
+    row["floor"] = noise_floor(row)
+    return row
+
+
+def noise_floor(row: dict) -> float:
+    """E1 [m²] that observation noise alone leaves: the augmented model at the stage's θ replays the
+    held-out flop's controls, its nodes get the data set's noise (seed 0), and the one-step error
+    of that recording at the same θ is taken (what the stage could reach if it were exact)."""
+    from testbed.datasets import cached_dataset
+    held = load_trajectory(cached_dataset(row["dataset"], row["seed"], noise=row["noise"])["heldout_0"])
+    effects = [EFFECT_TYPES[name]() for name in row["kept"]]
+    t = np.asarray(held["time"].values, float)
+    replay = ReplayController(t, np.asarray(held["controls"].transpose("time", "cable").values, float))
+    theta = np.asarray(row["theta"], float)
+    ds = simulate(theta, controller=replay, duration=float(t[-1] - t[0]), effects=effects, noise=row["noise"],
+                  seed=0)
+    return float(TrajectoryObjective([ds], horizon=1, loss="squared", effects=effects, n_workers=0)(theta))
 
 
 def summarize(rows: list[dict]) -> None:
@@ -77,6 +96,10 @@ def summarize(rows: list[dict]) -> None:
             f"{when} " + ", ".join(f"{k} {v['share']:.0%}" for k, v in w["phases"].items()) + ", "
             + ", ".join(f"{k} {v:.0%}" for k, v in w["frequency_share"].items())
             for when, w in (("before", r["where_before"]), ("after", r["where_after"]))))
+    floors = [(r["floor"], r["before"]["one_step"], r["after"]["one_step"]) for r in rows if "floor" in r]
+    for (f, b, a), r in zip(floors, [r for r in rows if "floor" in r], strict=True):
+        print(f"{r['dataset']} seed {r['seed']}: noise floor of E1 {f:.4g}; above it, after / before "
+              f"{(a - f) / (b - f):.2f}; floor / before {f / b:.2f}")
     if ratios:
         arr = np.array(ratios)
         both = int(((arr[:, 0] <= 0.5) & (arr[:, 1] <= 0.5)).sum())
@@ -103,6 +126,10 @@ def main(argv: list[str] | None = None) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
     seeds = range(args.first_seed, args.first_seed + args.seeds)
+    if any("floor" not in r for r in saved):       # rows saved before the floor was measured
+        for r in saved:
+            r.setdefault("floor", noise_floor(r))
+        out.write_text("".join(json.dumps(r) + "\n" for r in saved))
     key = {(r["dataset"], r["seed"], r["noise"]): r for r in saved}
     rows = []
     for seed in seeds:

@@ -53,7 +53,7 @@ from physics.parameters import ParameterSpace
 from physics.tensegrity import ModelOptions
 from physics.trajectory_objective import TrajectoryObjective
 
-__all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "split_masks", "retuned_at_bounds"]
+__all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "identify_from", "split_masks", "retuned_at_bounds"]
 
 
 @dataclass(frozen=True)
@@ -178,15 +178,16 @@ def _held_errors(objective: Objective, theta: np.ndarray, held: np.ndarray) -> d
     return out
 
 
-def _identify(objective: Objective, config: DiagnoseConfig, seed: int, warm: np.ndarray | None,
-              journal: Path | None, progress: bool) -> IdentificationResult:
-    """Full-space BO on ``objective``; ``warm`` (D,) becomes cell 0 and is evaluated first."""
+def identify_from(objective: Objective, warm: np.ndarray | None, *, budget: int, candidates: int, seed: int,
+                  journal: Path | None = None, progress: bool = True) -> IdentificationResult:
+    """Full-space BO on ``objective`` over ``candidates`` Sobol cells, ``budget`` evaluations;
+    ``warm`` (D,), a fit the caller already has, becomes cell 0 and is evaluated first."""
     space = objective.space
     decoder = Identity(space)
     include = None if warm is None else decoder.encode(np.clip(warm, space.lower, space.upper))[None]
-    grid = SobolCandidates(decoder.bounds, n=config.candidates, seed=seed, include=include)
+    grid = SobolCandidates(decoder.bounds, n=candidates, seed=seed, include=include)
     proposer = "bo" if warm is None else BOProposer(seed, initial=WarmStart([0], SobolDesign(seed)))
-    return identify(objective, decoder, grid, budget=config.budget, seed=seed, proposer=proposer,
+    return identify(objective, decoder, grid, budget=budget, seed=seed, proposer=proposer,
                     journal=journal, progress=progress)
 
 
@@ -229,8 +230,9 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
         added: tuple[Effect, ...] = stage.effects if stage is not None else ()
         tries = superseded(tries, added)
         warm0 = stage.theta if stage is not None and added else None
-        ident = _identify(fit_objective.with_effects(added), config, config.seed, warm0, _journal(journals, 0),
-                          progress)
+        ident = identify_from(fit_objective.with_effects(added), warm0, budget=config.budget,
+                              candidates=config.candidates, seed=config.seed, journal=_journal(journals, 0),
+                              progress=progress)
         first_belief, passes = ident.belief, []
         for k in range(config.passes):
             model = full.with_effects(added)
@@ -247,8 +249,9 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
                 break
             added = added + (effect_from_config(crit.found.config),)
             warm = np.asarray(crit.found.theta, float)
-            ident = _identify(fit_objective.with_effects(added), config, config.seed + k + 1, warm,
-                              _journal(journals, k + 1), progress)
+            ident = identify_from(fit_objective.with_effects(added), warm, budget=config.budget,
+                                  candidates=config.candidates, seed=config.seed + k + 1,
+                                  journal=_journal(journals, k + 1), progress=progress)
             extended = full.with_effects(added)
             step.added, step.names_after = crit.found.name, extended.space.names
             step.theta_after = np.asarray(ident.best_theta, float)

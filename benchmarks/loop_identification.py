@@ -1,0 +1,144 @@
+"""Identification after the loop: perturbed foreign robots identified with the bare T6 and with the
+model the mismatch stage augmented, against the truth the testbed knows.
+
+Per seed: testbed data set ``perturbed`` (its 12 acting parameters drawn within ±10 % of nominal;
+benchmarks/testbed), fit flops ``flop_0`` and ``flop_1`` (3 s), held-out ``heldout_0``. The
+mismatch stage (criticism.mismatch) runs on them; then full-space BO with the honest posterior
+(criticism.diagnose.identify_from, ``--budget`` evaluations, 25-sample open-loop windows, squared
+loss) identifies on the fit flops
+
+- **bare**: the T6, warm-started at the stage's re-tuned bare θ (its "before");
+- **augmented**: the T6 with the kept components, warm-started at the stage's θ.
+
+Printed per model and seed, over the 12 parameters the testbed and the T6 share (the motor
+parameters are inert in the testbed): how many of the best θ's values and of the posterior means
+lie within 2 % of the truth, how many are identified (or weakly), and how many of those intervals
+hold the truth; then the same for the stage's least-squares θ (a point, no interval).
+
+    .venv/bin/python benchmarks/loop_identification.py --seeds 2
+    .venv/bin/python benchmarks/loop_identification.py --summarize .cache/loop/rows.jsonl
+
+Rows are appended to ``--out`` (JSON lines); a (seed, noise, budget) already there is skipped.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from belief.result import IdentificationResult
+from criticism.diagnose import identify_from, split_masks
+from criticism.mismatch import MismatchConfig, absorb_mismatch
+from physics import TrajectoryObjective, load_trajectory
+
+LABELS = ("flop_0", "flop_1", "heldout_0")
+INERT = ("motor_radius", "motor_friction", "motor_inertia")
+TOLERANCE = 0.02
+
+
+def _shared(names: tuple[str, ...], truth: dict[str, float]) -> list[str]:
+    return [n for n in names if n in truth and n not in INERT]
+
+
+def point_row(names: tuple[str, ...], theta: np.ndarray, truth: dict[str, float]) -> dict[str, float]:
+    """Relative error |θ_j − θ*_j| / θ*_j of each shared parameter of a point θ (D,)."""
+    values = dict(zip(names, np.asarray(theta, float).tolist(), strict=True))
+    return {n: abs(values[n] - truth[n]) / abs(truth[n]) for n in _shared(names, truth)}
+
+
+def belief_row(result: IdentificationResult, truth: dict[str, float]) -> dict[str, dict]:
+    """Per shared parameter: best θ's and mean's relative errors, the verdict, the interval, whether it holds θ*."""
+    belief = result.belief
+    assert belief is not None
+    names = tuple(belief.space.names)
+    best = point_row(names, np.asarray(result.best_theta.values, float), truth)
+    summary = belief.marginals()
+    out = {}
+    for n in _shared(names, truth):
+        s = summary.sel(parameter=n)
+        lo, hi, mean = float(s["lower"]), float(s["upper"]), float(s["mean"])
+        out[n] = {"best": best[n], "mean": abs(mean - truth[n]) / abs(truth[n]), "verdict": belief.verdicts[n][0],
+                  "lower": lo, "upper": hi, "holds": bool(lo <= truth[n] <= hi)}
+    return out
+
+
+def run_one(seed: int, noise: float, budget: int, n_workers: int) -> dict:
+    """The stage and both identifications on one perturbed robot; the benchmark's row (JSON-ready)."""
+    from testbed.datasets import cached_dataset
+    files = cached_dataset("perturbed", seed, noise=noise)
+    truth = json.loads((files["flop_0"].parent / "truth.json").read_text())["theta"]
+    data = [load_trajectory(files[label]) for label in LABELS]
+    start = time.perf_counter()
+    with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
+        fit, _ = split_masks(objective.segments, [2])
+        stage = absorb_mismatch(objective, fit, [2], config=MismatchConfig(), progress=False)
+        model = objective.select([0, 1])
+        bare = identify_from(model, stage.base_theta, budget=budget, candidates=2048, seed=seed, progress=False)
+        augmented = identify_from(model.with_effects(stage.effects), stage.theta, budget=budget, candidates=2048,
+                                  seed=seed, progress=False)
+    return {"seed": seed, "noise": noise, "budget": budget, "kept": [e.name for e in stage.effects],
+            "stage_bare": point_row(objective.space.names, stage.base_theta, truth),
+            "stage_augmented": point_row(stage.names, stage.theta, truth),
+            "bare": belief_row(bare, truth), "augmented": belief_row(augmented, truth),
+            "seconds": time.perf_counter() - start}
+
+
+def _counts(rows: dict[str, dict]) -> str:
+    best = sum(v["best"] <= TOLERANCE for v in rows.values())
+    mean = sum(v["mean"] <= TOLERANCE for v in rows.values())
+    ident = [v for v in rows.values() if v["verdict"] == "identified"]
+    weak = [v for v in rows.values() if v["verdict"] == "weakly identified"]
+    return (f"best {best:2d}, mean {mean:2d} within 2 %; identified {len(ident)} ({sum(v['holds'] for v in ident)} "
+            f"hold θ*), weakly {len(weak)} ({sum(v['holds'] for v in weak)} hold θ*)")
+
+
+def summarize(rows: list[dict]) -> None:
+    for r in rows:
+        print(f"seed {r['seed']} (noise {r['noise']:g}, budget {r['budget']}, kept {', '.join(r['kept']) or 'none'}, "
+              f"{r['seconds']:.0f} s), of {len(r['bare'])} shared parameters:")
+        for key in ("bare", "augmented"):
+            print(f"  {key:9s} {_counts(r[key])}")
+            held = [n for n, v in r[key].items() if v["verdict"] != "not identified"]
+            if held:
+                print("            " + "; ".join(f"{n} [{r[key][n]['lower']:.4g}, {r[key][n]['upper']:.4g}] "
+                                                 f"{r[key][n]['verdict']}" for n in held))
+        for key in ("stage_bare", "stage_augmented"):
+            within = sorted(n for n, v in r[key].items() if v <= TOLERANCE)
+            print(f"  {key:15s} least-squares θ within 2 %: {len(within)} ({', '.join(within)})")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--first-seed", type=int, default=0)
+    ap.add_argument("--noise", type=float, default=0.0002, help="observation noise of the data set [m]")
+    ap.add_argument("--budget", type=int, default=60, help="evaluations per identification")
+    ap.add_argument("--workers", type=int, default=2, help="worker processes of the simulations")
+    ap.add_argument("--out", default=".cache/loop/rows.jsonl", help="rows are appended here (JSON lines)")
+    ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
+    args = ap.parse_args(argv)
+    if args.summarize:
+        summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
+        return 0
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
+    done = {(r["seed"], r["noise"], r["budget"]): r for r in saved}
+    rows = []
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
+        row = done.get((seed, args.noise, args.budget))
+        if row is None:
+            row = run_one(seed, args.noise, args.budget, args.workers)
+            with out.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+        rows.append(row)
+    summarize(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
