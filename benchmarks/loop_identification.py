@@ -93,7 +93,8 @@ def _counts(rows: dict[str, dict]) -> str:
     ident = [v for v in rows.values() if v["verdict"] == "identified"]
     weak = [v for v in rows.values() if v["verdict"] == "weakly identified"]
     return (f"best {best:2d}, mean {mean:2d} within 2 %; identified {len(ident)} ({sum(v['holds'] for v in ident)} "
-            f"hold θ*), weakly {len(weak)} ({sum(v['holds'] for v in weak)} hold θ*)")
+            f"hold θ*), weakly {len(weak)} ({sum(v['holds'] for v in weak)} hold θ*); every interval: "
+            f"{sum(v['holds'] for v in rows.values())} of {len(rows)} hold θ*")
 
 
 def summarize(rows: list[dict]) -> None:
