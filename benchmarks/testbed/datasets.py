@@ -38,6 +38,10 @@ def _slope(rng: np.random.Generator) -> Effects:
     return Effects(slope=float(np.deg2rad(3.0)), slope_azimuth=float(rng.uniform(0, 2 * np.pi)))
 
 
+def _slope_and_delay(rng: np.random.Generator) -> Effects:
+    return replace(_slope(rng), actuator_delay=0.05)
+
+
 def _mass(rng: np.random.Generator) -> Effects:
     return Effects(extra_mass=0.5, extra_mass_rod=int(rng.integers(6)), extra_mass_at=0.4)
 
@@ -53,6 +57,7 @@ DATASETS: dict[str, tuple[bool, Callable[[np.random.Generator], Effects]]] = {
     "hysteresis": (False, lambda rng: Effects(hysteresis=0.3)),
     "extra_mass": (False, _mass),
     "ground_viscosity": (False, lambda rng: Effects(ground_viscosity=20.0)),
+    "slope+delay": (False, _slope_and_delay),
 }
 
 

@@ -1,0 +1,116 @@
+"""The catalog search's statistics on a linear model whose answer is known: one effect is found
+alone, two effects that each hide the other are found through the pair, and a decoy is not named.
+
+The test double is an EffectObjective whose residual is linear in θ (no physics), so the verdict
+depends only on the search's rules (criticism.search, module docstring, step 3):
+
+    r_s(θ) = y_s - A_s u(θ) - Σ_e c_e(η_e) B_{e,s},   c_e = 2 (η_e - lower_e) / width_e
+
+u (15,) the T6 parameters in the unit box minus nominal, A_s (m, 15) small, B_e the effect's
+signature (S, m), y = Σ_true c_e B_e + unit Gaussian noise. The signatures are orthogonal to A's
+columns, so re-tuning the T6 cannot absorb them.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pytest
+
+from criticism.search import CriticismConfig, criticize
+from physics.effects import ActuatorDelay, AirDrag, Effect, PointMass, model_space
+from physics.objective import BatchResult
+from physics.parameters import ParameterSpace
+
+S, M = 8, 50
+FIT = np.arange(S) < 6
+T6 = ParameterSpace.t6()
+
+
+class LinearEffects:
+    """EffectObjective with the linear residual of the module docstring (loss "squared")."""
+
+    loss = "squared"
+    trajectories: list = []
+
+    def __init__(self, y: np.ndarray, a: np.ndarray, signatures: dict[str, np.ndarray],
+                 effects: Sequence[Effect] = ()) -> None:
+        self.y, self.a, self.signatures = y, a, signatures
+        self.effects = tuple(effects)
+        self.space = model_space(self.effects)
+        self.segments = tuple(f"t0/w{s}" for s in range(S))
+        self.n_observations, self.noise_var = S * M, None
+
+    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
+        theta = np.asarray(theta, float)
+        u = (theta[:T6.dim] - T6.nominal) / (T6.upper - T6.lower)
+        r = self.y - self.a @ u
+        for j in range(T6.dim, self.space.dim):
+            p = self.space.parameters[j]
+            r = r - 2.0 * (theta[j] - p.lower) / (p.upper - p.lower) * self.signatures[p.name]
+        return [r[s][:, None] for s in range(S)]
+
+    def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
+        return [self.residuals(t) for t in np.atleast_2d(thetas)]
+
+    def evaluate_parts(self, theta: np.ndarray) -> np.ndarray:
+        return np.array([float((r ** 2).sum()) for r in self.residuals(theta)])
+
+    def __call__(self, theta: np.ndarray) -> float:
+        return float(self.evaluate_parts(theta).sum())
+
+    def evaluate_batch(self, thetas: np.ndarray, *, on_result=None) -> BatchResult:
+        parts = np.array([self.evaluate_parts(t) for t in np.atleast_2d(thetas)])
+        n = len(parts)
+        return BatchResult(parts.sum(axis=1), ("ok",) * n, np.zeros(n), ("",) * n, parts)
+
+    def with_effects(self, effects: Sequence[Effect]) -> LinearEffects:
+        return LinearEffects(self.y, self.a, self.signatures, effects)
+
+    def fingerprint(self) -> dict:
+        return {"segments": list(self.segments), "effects": [e.name for e in self.effects]}
+
+    def close(self) -> None:
+        pass
+
+
+def _problem(truth: dict[str, float], seed: int = 0) -> tuple[LinearEffects, list[Effect]]:
+    """Signatures air_drag = 3u + v, point_mass = -3u + w, actuator_delay (decoy) = z, each of |.|² =
+    200 per direction; y = Σ truth[name] * signature + N(0, 1)."""
+    rng = np.random.default_rng(seed)
+    a = 0.1 * rng.standard_normal((S, M, T6.dim))
+    basis = np.linalg.qr(np.c_[a.reshape(S * M, T6.dim), rng.standard_normal((S * M, 4))])[0][:, T6.dim:]
+    u, v, w, z = (np.sqrt(200.0) * basis[:, k].reshape(S, M) for k in range(4))
+    signatures = {"drag": 3 * u + v, "point_mass": -3 * u + w, "actuator_delay": z}
+    names = {"air_drag": "drag", "point_mass": "point_mass", "actuator_delay": "actuator_delay"}
+    y = rng.standard_normal((S, M)) + sum(c * signatures[names[e]] for e, c in truth.items())
+    return LinearEffects(y, a, signatures), [AirDrag(), PointMass(), ActuatorDelay()]
+
+
+def _criticize(truth: dict[str, float]):
+    objective, effects = _problem(truth)
+    return criticize(objective, T6.nominal, fit=FIT, held=~FIT, effects=effects,
+                     config=CriticismConfig(grid=5, refine=5, joint=3), progress=False)
+
+
+def test_one_effect_is_found_alone_without_the_pair() -> None:
+    crit = _criticize({"air_drag": 1.0})
+    assert crit.verdict == "found" and crit.found is not None and crit.found.name == "air_drag"
+    assert crit.pair is None
+    assert crit.found.values["drag"] == pytest.approx(10.0, abs=0.5)   # c = 1 at mid-box
+
+
+def test_two_effects_that_hide_each_other_are_found_through_the_pair() -> None:
+    """Each alone explains ~5 % (its 3u part is cancelled by the other's), so neither passes alone;
+    together they explain the signal v + w, and each has strong evidence given the other."""
+    crit = _criticize({"air_drag": 1.0, "point_mass": 1.0})
+    assert all(c.explained < 0.3 for c in crit.ranking), [(c.name, c.explained) for c in crit.ranking]
+    assert crit.pair is not None and set(crit.pair["effects"]) == {"air_drag", "point_mass"}
+    assert min(crit.pair["given"].values()) >= 10.0 and crit.pair["explained"] >= 0.3, crit.pair
+    assert crit.verdict == "found" and crit.found is not None and crit.found.name in {"air_drag", "point_mass"}
+
+
+def test_a_decoy_signature_with_no_signal_is_not_claimed() -> None:
+    crit = _criticize({})
+    assert crit.verdict == "unexplained" and crit.found is None
+    assert crit.pair is None or min(crit.pair["given"].values()) < 10.0
