@@ -26,7 +26,9 @@ first trajectory for trajectory data), and journals to
 ``DIR/journal.sqlite`` (the latent stage to ``DIR/journal-latent.sqlite``) so an interrupted run
 resumes when re-run; a journal of another problem is set aside (``journal.1.sqlite``) unless
 ``--resume``. The prior box: ``--nominal NAME=VALUE``, ``--bounds NAME=LO:HI``, ``--params FILE``
-(physics.prior_box), saved as ``prior_box.json``. When the data files carry the θ that generated
+(physics.prior_box), saved as ``prior_box.json``. ``--effects a,b`` or ``--model DIR/model.json``
+(written by ``tensegrid diagnose``: the components and effects it added) identify the T6 with those
+effects, their parameters in their own boxes (physics.model_file). When the data files carry the θ that generated
 them (simulated data do), the summary shows it next to P's intervals. The data files are checked
 first as by ``tensegrid check`` (docs/data-format.md): an error stops the run before any
 evaluation, unless ``--skip-checks``.
@@ -90,6 +92,12 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue the journal (an error when it is missing or of another problem); without it a "
                         "journal of another problem is set aside as journal.1.sqlite and the run starts afresh")
+    model = p.add_mutually_exclusive_group()
+    model.add_argument("--effects", default=None, metavar="NAME[,NAME...]",
+                       help="identify the T6 with these effects, their parameters too (physics.effects.EFFECT_TYPES, "
+                            "e.g. tension_limited_actuator,cable_anchors)")
+    model.add_argument("--model", default=None, metavar="FILE",
+                       help="identify with the effects of a model file: DIR/model.json of tensegrid diagnose")
     add_prior_box_options(p)
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
@@ -111,7 +119,8 @@ def _push_objective(seed: int, space: Any) -> tuple[Any, Any]:
     return PushObjective(impulses, observed, space=space, noise_std=0.05), truth
 
 
-def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, *, title: str = "") -> None:
+def _plot_rollouts(args: argparse.Namespace, dataset: Any, space: Any, result: Any, path: str, *,
+                   title: str = "") -> None:
     """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ, for one trajectory;
     the figure says why when the best θ's rollout drifts further than the nominal one's."""
     from belief.plots import rollout_note
@@ -122,7 +131,7 @@ def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, *, title: s
     thetas = {"nominal": space.nominal, "best": result.best_theta.values,
               "posterior mean": result.marginals["mean"].values}
     preds = {}
-    with TrajectoryObjective([dataset], horizon="rollout", n_workers=0) as roll:
+    with TrajectoryObjective([dataset], horizon="rollout", n_workers=0, effects=_effects(args)) as roll:
         for name, th in thetas.items():
             try:
                 preds[name] = roll.predictions(th)[0]
@@ -168,7 +177,8 @@ def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
 
         preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
     objective = TrajectoryObjective(datasets, space=space, horizon=1, loss=args.loss, windows=args.windows,
-                                options=options, n_workers=args.workers if args.workers > 1 else 0)
+                                options=options, n_workers=args.workers if args.workers > 1 else 0,
+                                effects=_effects(args))
     return objective, _data_truth(datasets, objective.space), datasets
 
 
@@ -271,7 +281,7 @@ def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth
     if datasets:
         title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
                  if len(datasets) > 1 else "")
-        _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
+        _plot_rollouts(args, datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
     plot_pairs(result.belief, os.path.join(out, "pairs.png"), truth=truth)
     write_identify_report(out, result, args, datasets, truth=truth)
 
@@ -281,12 +291,26 @@ def _note(text: str) -> None:
     print(f"tensegrid identify: note: {text}", file=sys.stderr)
 
 
+def _effects(args: argparse.Namespace) -> tuple[Any, ...]:
+    """The effects of --effects or --model (physics.model_file), () without them."""
+    from physics.errors import ParameterError
+    from physics.model_file import effects_by_name, read_model_file
+
+    effects, model = getattr(args, "effects", None), getattr(args, "model", None)
+    if (effects or model) and args.toy is not None:
+        raise ParameterError("--effects and --model extend the T6 model; the push toy has none. Drop them or "
+                             "pass data files.")
+    return effects_by_name(effects) if effects else read_model_file(model) if model else ()
+
+
 def _default_space(args: argparse.Namespace) -> Any:
-    """The parameter space before --nominal, --bounds and --params: the push toy's or the T6's."""
-    from physics.parameters import ParameterSpace
+    """The parameter space before --nominal, --bounds and --params: the push toy's, or the T6's with the
+    effects of --effects or --model."""
+    from physics.effects import model_space
     from physics.push import push_space
 
-    return push_space() if args.toy == "push" else ParameterSpace.t6()
+    effects = _effects(args)            # refused with the toy
+    return push_space() if args.toy == "push" else model_space(effects)
 
 
 def _journal_path(args: argparse.Namespace) -> str | None:

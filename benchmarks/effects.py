@@ -35,7 +35,8 @@ models it (TESTBED_TRUTH) is; rows go to benchmarks/results/effects-testbed.json
     .venv/bin/python benchmarks/effects.py --source testbed --seeds 2
     .venv/bin/python benchmarks/effects.py --source testbed --mismatch --seeds 1   # mismatch stage first
 
-``--mismatch`` runs diagnose's mismatch stage (criticism.mismatch) before the first identification,
+``--mismatch`` runs diagnose's mismatch stage (criticism.mismatch, diagnose's default; off here
+unless asked, so that rows compare with the tables measured before the stage) before the first identification,
 so effects are searched on the model it augments; rows record the components it kept and its
 held-out ratios, and go to a file of their own (``...-mismatch.jsonl``).
 

@@ -20,6 +20,10 @@ targets (both ratios at most 0.5).
     .venv/bin/python benchmarks/mismatch.py --seeds 3 --first-seed 2           # nominal robots 2-4
     .venv/bin/python benchmarks/mismatch.py --dataset perturbed --seeds 2 --noise 0.001
     .venv/bin/python benchmarks/mismatch.py --summarize .cache/mismatch/rows.jsonl
+    .venv/bin/python benchmarks/mismatch.py --source own --dataset actuator_delay --seeds 2 --first-seed 0
+
+``--source own`` runs the stage on the project's own engine (the scenarios of benchmarks/effects.py,
+1.5 s flops), where it should keep nothing.
 
 Rows are appended to ``--out`` (JSON lines); a (dataset, seed, noise) already there is skipped.
 """
@@ -41,18 +45,27 @@ from physics.effects import EFFECT_TYPES
 LABELS = ("flop_0", "flop_1", "heldout_0")
 
 
-def run_one(dataset: str, seed: int, noise: float, n_workers: int) -> dict:
-    """The stage on one testbed data set; the benchmark's row (JSON-ready)."""
+def load(source: str, dataset: str, seed: int, noise: float) -> list:
+    """The two fit flops and the held-out flop: of a testbed data set, or (``own``) of a scenario of
+    benchmarks/effects.py simulated by the project's own engine (1.5 s flops)."""
+    if source == "own":
+        from effects import make_data
+        return make_data(dataset, seed, noise=noise)[0]
     from testbed.datasets import cached_dataset
     files = cached_dataset(dataset, seed, noise=noise)
-    data = [load_trajectory(files[label]) for label in LABELS]
+    return [load_trajectory(files[label]) for label in LABELS]
+
+
+def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed") -> dict:
+    """The stage on one data set; the benchmark's row (JSON-ready)."""
+    data = load(source, dataset, seed, noise)
     start = time.perf_counter()
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
         config = MismatchConfig()
         report = absorb_mismatch(objective, fit, [2], config=config, progress=False)
         nominal = held_scores(objective, objective.space.nominal, [2], config.drift_time)
-    row = {"dataset": dataset, "seed": seed, "noise": noise, "kept": [e.name for e in report.effects],
+    row = {"source": source, "dataset": dataset, "seed": seed, "noise": noise, "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
             "trials": [{"round": t.round, "name": t.name, "gain": t.gain, "values": t.values} for t in report.trials],
             "nominal": nominal.totals(), "before": report.before.totals(), "after": report.after.totals(),
@@ -67,8 +80,7 @@ def noise_floor(row: dict) -> float:
     """E1 [m²] that observation noise alone leaves: the augmented model at the stage's θ replays the
     held-out flop's controls, its nodes get the data set's noise (seed 0), and the one-step error
     of that recording at the same θ is taken (what the stage could reach if it were exact)."""
-    from testbed.datasets import cached_dataset
-    held = load_trajectory(cached_dataset(row["dataset"], row["seed"], noise=row["noise"])["heldout_0"])
+    held = load(row.get("source", "testbed"), row["dataset"], row["seed"], row["noise"])[2]
     effects = [EFFECT_TYPES[name]() for name in row["kept"]]
     t = np.asarray(held["time"].values, float)
     replay = ReplayController(t, np.asarray(held["controls"].transpose("time", "cable").values, float))
@@ -110,7 +122,10 @@ def summarize(rows: list[dict]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dataset", default="nominal", help="testbed data set (default nominal)")
+    ap.add_argument("--source", choices=["testbed", "own"], default="testbed",
+                    help="the foreign testbed (default) or the project's own engine (--dataset: a scenario of "
+                         "benchmarks/effects.py, e.g. none or actuator_delay)")
+    ap.add_argument("--dataset", default=None, help="data set (default: nominal on the testbed, none on own)")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--first-seed", type=int, default=2, help="seeds first-seed .. first-seed + seeds - 1 (the "
                     "stage's components and threshold were chosen on nominal seeds 0 and 1)")
@@ -130,12 +145,13 @@ def main(argv: list[str] | None = None) -> int:
         for r in saved:
             r.setdefault("floor", noise_floor(r))
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
-    key = {(r["dataset"], r["seed"], r["noise"]): r for r in saved}
+    args.dataset = args.dataset or ("nominal" if args.source == "testbed" else "none")
+    key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"]): r for r in saved}
     rows = []
     for seed in seeds:
-        row = key.get((args.dataset, seed, args.noise))
+        row = key.get((args.source, args.dataset, seed, args.noise))
         if row is None:
-            row = run_one(args.dataset, seed, args.noise, args.workers)
+            row = run_one(args.dataset, seed, args.noise, args.workers, args.source)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(f"{args.dataset} seed {seed}: kept {row['kept']}, {row['seconds']:.0f} s", flush=True)

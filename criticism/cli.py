@@ -39,7 +39,7 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
                     "and report the held-out error before and after (docs/diagnose.md).")
     p.add_argument("data", nargs="+", help="trajectory netCDF files (docs/data-format.md)")
     p.add_argument("--out", required=True,
-                   help="output directory (report.txt, diagnosis.json, figures, report.html, journals)")
+                   help="output directory (report.txt, diagnosis.json, model.json, figures, report.html, journals)")
     p.add_argument("--held-out", type=int, nargs="*", default=None,
                    help="indices of the trajectories held out for scoring (default: the last third, at least one)")
     p.add_argument("--effects", nargs="*", default=None,
@@ -50,10 +50,10 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--candidates", type=int, default=2048, help="Sobol candidates per identification")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-progress", action="store_true", help="hide progress bars")
-    p.add_argument("--mismatch", action="store_true",
-                   help="first absorb the engine mismatch: re-tune the T6 and add the component changes (actuator law, "
-                        "cable anchors, end caps) that make it reproduce the data (criticism.mismatch), then search "
-                        "the effects on that model")
+    p.add_argument("--no-mismatch", action="store_true",
+                   help="skip the mismatch stage, which by default first absorbs the engine mismatch: re-tunes the T6 "
+                        "and adds the component changes (actuator law, cable anchors, end caps) that make it "
+                        "reproduce the data (criticism.mismatch); the effects are then searched on that model")
     p.add_argument("--skip-checks", action="store_true",
                    help="do not stop on the data checks' errors, nor on what diagnose cannot use (a robot not at "
                         "rest at the start, jumping markers; tensegrid check; docs/diagnose.md)")
@@ -95,7 +95,7 @@ def _before_run(args: argparse.Namespace, config: DiagnoseConfig) -> None:
 
 def run_diagnose(args: argparse.Namespace) -> int:
     """Load and check the trajectory files (physics.checks), run :func:`~criticism.diagnose.diagnose`, print
-    and write the report (report.txt, diagnosis.json, figures) to ``--out``; returns the exit status 0.
+    and write the report (report.txt, diagnosis.json, model.json, figures) to ``--out``; returns the exit status 0.
     Nothing is written before the inputs are valid; a journal of another problem is set aside unless --resume."""
     check_output_dir(args.out)
     _check_prior_box(args)
@@ -111,8 +111,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
         if unknown:
             raise ParameterError(f"unknown effect(s) {unknown}; known effects are {sorted(EFFECT_TYPES)}.")
         effects = [EFFECT_TYPES[name]() for name in args.effects]
-    config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates,
-                            horizon=args.horizon, seed=args.seed, mismatch=MismatchConfig() if args.mismatch else None)
+    config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates, horizon=args.horizon,
+                            seed=args.seed, mismatch=None if args.no_mismatch else MismatchConfig())
     _before_run(args, config)
     with output_dir(args.out):          # removed again if the run fails before writing into it
         diagnosis = run_with_journals(

@@ -61,8 +61,10 @@ class DiagnoseConfig:
     """passes: most effects added; budget: evaluations per identification; candidates: Sobol cells
     of each identification; horizon, windows: of the error (module docstring); seed: all randomness;
     bound_tolerance: a re-tuned value within this fraction of the box width of a bound is at it
-    (belief.bounds); mismatch: run the mismatch stage (criticism.mismatch) before the first
-    identification, and identify and search on the model it augments (None: off)."""
+    (belief.bounds); mismatch: the mismatch stage (criticism.mismatch) run before the first
+    identification, whose components the identification and the search then keep (None: off). It
+    is on by default: measured data always carry engine mismatch, and on the engine's own data it
+    keeps nothing (tests/criticism/test_mismatch.py), so the rest of the loop is as without it."""
 
     passes: int = 2
     budget: int = 40
@@ -72,7 +74,7 @@ class DiagnoseConfig:
     seed: int = 0
     criticism: CriticismConfig = field(default_factory=CriticismConfig)
     bound_tolerance: float = AT_BOUND_TOLERANCE
-    mismatch: MismatchConfig | None = None
+    mismatch: MismatchConfig | None = field(default_factory=MismatchConfig)
 
     def __post_init__(self) -> None:
         if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:

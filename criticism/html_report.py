@@ -112,6 +112,14 @@ def write_diagnose_report(out: str | Path, d: Diagnosis, trajectories: Sequence[
     page.code(command)
     page.table(["setting", "value"], _settings(d))
     data_section(page, list(args.data), trajectories, skipped=bool(getattr(args, "skip_checks", False)))
+    if d.mismatch is not None:
+        page.section("Engine mismatch")
+        kept = ", ".join(e.name for e in d.mismatch.effects)
+        ratios = d.mismatch.ratios()
+        page.paragraph((f"The mismatch stage added {kept} to the T6" if kept else "The mismatch stage kept no "
+                        "component change") + f": held-out one-step error ×{ratios['one_step']:.2f}, open-loop "
+                       f"drift ×{ratios['drift']:.2f} (after / before). The passes below start from this model.")
+        page.code(d.mismatch.text())
     page.section("Passes")
     for k, p in enumerate(d.passes, 1):
         _pass(page, k, p, d)

@@ -1,4 +1,8 @@
-"""The report of a diagnosis: text tables, a JSON record and figures (matplotlib, Agg).
+"""The report of a diagnosis: text tables, a JSON record, the final model and figures (matplotlib, Agg).
+
+``model.json`` holds the final model (the mismatch stage's components, then the effects found)
+and its θ̂ (physics.model_file), so that ``tensegrid identify --model DIR/model.json`` identifies
+with it.
 
 Figures (written to the output directory):
 
@@ -24,6 +28,7 @@ from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
 from criticism.diagnose import Diagnosis, Pass
 from criticism.residuals import residual_dataset
 from physics.effects import Effect, effect_from_config
+from physics.model_file import write_model_file
 from physics.trajectory_objective import TrajectoryObjective
 
 if TYPE_CHECKING:
@@ -103,9 +108,14 @@ def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequen
                            windows=d.settings["windows"], effects=effects, n_workers=0)
 
 
+def _staged(d: Diagnosis) -> list[Effect]:
+    """The effects the mismatch stage added (the model of pass 1), [] without the stage."""
+    return [] if d.mismatch is None else list(d.mismatch.effects)
+
+
 def _final(d: Diagnosis) -> tuple[list[Effect], np.ndarray]:
-    """The final model's effects and θ̂."""
-    effects: list[Effect] = []
+    """The final model's effects (the mismatch stage's, then those found) and θ̂."""
+    effects: list[Effect] = _staged(d)
     theta = d.passes[0].theta
     for p in d.passes:
         if p.added is not None and p.criticism.found is not None and p.theta_after is not None:
@@ -183,8 +193,8 @@ def _plot_signature(d: Diagnosis, trajectories: Sequence[xr.Dataset], path: Path
     if p.criticism.found is None:
         return False
     effect = effect_from_config(p.criticism.found.config)
-    base = _objective(d, trajectories, [])
-    with_it = base.with_effects([effect])
+    base = _objective(d, trajectories, _staged(d))
+    with_it = base.with_effects([*_staged(d), effect])
     k = d.held_out[0] if d.held_out else 0
     theta_e = np.asarray(p.criticism.found.theta, float)
     x_b = base.predictions(theta_e[:base.space.dim])[k].values
@@ -210,7 +220,8 @@ def _plot_signature(d: Diagnosis, trajectories: Sequence[xr.Dataset], path: Path
 
 
 def write_report(d: Diagnosis, trajectories: Sequence[xr.Dataset], out: str | Path) -> list[Path]:
-    """Write report.txt, diagnosis.json and the figures of the module docstring to ``out``; returns the paths."""
+    """Write report.txt, diagnosis.json, model.json and the figures of the module docstring to ``out``;
+    returns the paths."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -220,7 +231,10 @@ def write_report(d: Diagnosis, trajectories: Sequence[xr.Dataset], out: str | Pa
     paths[0].write_text(diagnosis_text(d) + "\n")
     paths[1].write_text(json.dumps(diagnosis_record(d), indent=1, default=float))
     effects, theta = _final(d)
-    before = residual_dataset(_objective(d, trajectories, []), d.passes[0].theta)
+    paths.append(out / "model.json")
+    names = d.passes[-1].names_after if d.passes[-1].theta_after is not None else d.passes[-1].names
+    write_model_file(paths[-1], effects, dict(zip(names, theta.tolist(), strict=True)))
+    before = residual_dataset(_objective(d, trajectories, _staged(d)), d.passes[0].theta)
     after = residual_dataset(_objective(d, trajectories, effects), theta)
     keys = d.held_out or [0]
     _plot_time(before, after, keys, out / "residual_time.png")

@@ -4,6 +4,9 @@ The "robot" here is the simulated SUPERball with an actuator delay of 80 ms (com
 motors late, as over a slow bus). Three flops toward three headings are recorded with 0.2 mm
 motion-capture noise; the recordings do not say that anything is delayed. ``diagnose``
 
+0. tries the mismatch stage's component changes (another actuator law, cable anchors, end caps;
+   docs/diagnose.md, "Engine mismatch"): on the engine's own data it keeps none (the quick mode
+   skips it),
 1. identifies the 15 T6 parameters on the first two flops,
 2. ranks the catalog effects by how much of the third flop's residual each explains beyond what
    re-tuning the model's own parameters explains (the floor),
@@ -11,7 +14,7 @@ motion-capture noise; the recordings do not say that anything is delayed. ``diag
 
 Run::
 
-    .venv/bin/python docs/tutorial_diagnose.py --out out/tutorial_diagnose     # about 2 min
+    .venv/bin/python docs/tutorial_diagnose.py --out out/tutorial_diagnose     # a few minutes
     .venv/bin/python docs/tutorial_diagnose.py --quick --out /tmp/tut          # what the tests run
 
 The same from the command line::
@@ -46,8 +49,8 @@ def main() -> None:
     print("what the first recording holds:", "; ".join(describe_trajectory(data[0])))
 
     # Identify on flops 0 and 1, criticize on flop 2, add what is found, identify again.
-    if args.quick:   # four effects, coarser fits, one pass: the same loop in a few minutes
-        config = DiagnoseConfig(budget=24, candidates=512, passes=1,
+    if args.quick:   # four effects, coarser fits, one pass, no mismatch stage: the same loop in a few minutes
+        config = DiagnoseConfig(budget=24, candidates=512, passes=1, mismatch=None,
                                 criticism=CriticismConfig(grid=5, refine=3, joint=1))
         effects = [ActuatorDelay(), RateLimitedActuation(), SensorBias(), GroundSlope()]
     else:

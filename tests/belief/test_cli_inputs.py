@@ -244,7 +244,7 @@ def test_resume_needs_a_journal(tmp_path, capsys) -> None:
 def test_diagnose_sets_aside_a_foreign_journal_and_the_corrected_run_works(tmp_path, data, capsys) -> None:
     out = tmp_path / "d"
     run = ["diagnose", *data, "--budget", "3", "--candidates", "8", "--passes", "1", "--effects", "actuator_delay",
-           "--horizon", "5", "--no-progress", "--out", str(out)]
+           "--horizon", "5", "--no-mismatch", "--no-progress", "--out", str(out)]
     assert main([*run, "--resume"]) == 2
     _error(capsys, "--resume: no journal at")
     assert not out.exists()

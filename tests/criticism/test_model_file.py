@@ -1,0 +1,80 @@
+"""The model a diagnosis ends with, handed to identification: diagnose writes DIR/model.json
+(physics.model_file), ``tensegrid identify --model`` and ``--effects`` identify with it; the
+reports of a diagnosis with the mismatch stage (report figures of the augmented model, the stage
+in report.html)."""
+from __future__ import annotations
+
+import argparse
+import json
+
+import pytest
+import xarray as xr
+
+from belief.least_squares import LeastSquaresConfig
+from criticism.diagnose import DiagnoseConfig, diagnose
+from criticism.html_report import write_diagnose_report
+from criticism.mismatch import MismatchConfig
+from criticism.report import write_report
+from physics import FlopController, save_trajectory, simulate
+from physics.cli import main
+from physics.effects import ActuatorDelay, CableAnchors, TensionLimitedActuation, model_space
+from physics.errors import ParameterError
+from physics.model_file import effects_by_name, read_model_file, write_model_file
+
+
+def test_a_model_file_reads_back_its_effects_in_order(tmp_path) -> None:
+    effects = (TensionLimitedActuation(), CableAnchors())
+    write_model_file(tmp_path / "model.json", effects, {"anchor_offset": 0.06})
+    assert [e.name for e in read_model_file(tmp_path / "model.json")] == ["tension_limited_actuator", "cable_anchors"]
+    assert [e.name for e in effects_by_name("actuator_delay, cable_anchors")] == ["actuator_delay", "cable_anchors"]
+
+
+@pytest.mark.parametrize("text, says", [("{", "is not JSON"), ('{"theta": {}}', "needs a list 'effects'"),
+                                        ('{"effects": [{"effect": "magic"}]}', "unknown effect 'magic'"),
+                                        ('{"effects": [{"effect": "cable_anchors"}, {"effect": "cable_anchors"}]}',
+                                         "listed twice")])
+def test_a_bad_model_file_is_refused_with_what_is_wrong(tmp_path, text: str, says: str) -> None:
+    (tmp_path / "model.json").write_text(text)
+    with pytest.raises(ParameterError, match=says):
+        read_model_file(tmp_path / "model.json")
+    with pytest.raises(ParameterError, match="cannot read the model file"):
+        read_model_file(tmp_path / "missing.json")
+    with pytest.raises(ParameterError, match="known effects are"):
+        effects_by_name("cable_anchors,magic")
+
+
+@pytest.fixture(scope="module")
+def anchored(tmp_path_factory) -> list[xr.Dataset]:
+    """Two 0.6 s flops of the T6 whose cables sit 6 cm off the rod axis (CableAnchors)."""
+    space = model_space([CableAnchors()])
+    theta = space.as_array({**space.as_dict(None), "anchor_offset": 0.06})
+    return [simulate(theta, controller=FlopController(h), duration=0.6, effects=[CableAnchors()], noise=2e-4, seed=k)
+            for k, h in enumerate((0.0, 2.1))]
+
+
+@pytest.mark.slow
+def test_diagnose_writes_the_model_with_the_stage_s_components_and_identify_uses_it(tmp_path, anchored,
+                                                                                      capsys) -> None:
+    stage = MismatchConfig(components=(CableAnchors(),), rounds=1, local=LeastSquaresConfig(evaluations=3))
+    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=stage)
+    d = diagnose(anchored, held_out=[1], effects=[ActuatorDelay()], config=config, n_workers=0, progress=False)
+    assert d.mismatch is not None and [e.name for e in d.mismatch.effects] == ["cable_anchors"]
+    files = [str(save_trajectory(ds, tmp_path / f"{k}.nc")) for k, ds in enumerate(anchored)]
+    write_report(d, anchored, tmp_path / "diag")
+    record = json.loads((tmp_path / "diag" / "model.json").read_text())
+    assert record["effects"][0] == {"effect": "cable_anchors"} and "anchor_offset" in record["theta"]
+    args = argparse.Namespace(data=files, out=str(tmp_path / "diag"), budget=6, no_progress=True, skip_checks=False)
+    page = write_diagnose_report(tmp_path / "diag", d, anchored, args).read_text(encoding="utf-8")
+    assert "Engine mismatch" in page and "The mismatch stage added cable_anchors to the T6" in page
+    out = tmp_path / "ident"
+    assert main(["identify", files[0], "--model", str(tmp_path / "diag" / "model.json"), "--preset", "bo",
+                 "--budget", "8", "--candidates", "64", "--out", str(out), "--no-progress"]) == 0
+    result = xr.open_dataset(out / "result.nc")
+    assert "anchor_offset" in [str(p) for p in result["parameter"].values]
+    box = json.loads((out / "prior_box.json").read_text())
+    assert box["anchor_offset"]["upper"] == pytest.approx(0.1)
+    with pytest.raises(SystemExit):         # one source of the model, not two
+        main(["identify", files[0], "--effects", "cable_anchors", "--model", "x.json", "--out", str(out)])
+    assert main(["identify", "--toy", "push", "--effects", "cable_anchors", "--out", str(tmp_path / "toy")]) == 2
+    assert "the push toy has none" in capsys.readouterr().err
+    assert not (tmp_path / "toy").exists()
