@@ -84,7 +84,7 @@ def test_diagnose_report_holds_the_run_the_passes_and_the_parameters(tmp_path, t
 def test_the_diagnose_command_writes_the_report(tmp_path, two_files, capsys) -> None:
     out = tmp_path / "out"
     assert main(["diagnose", *two_files, "--effects", "actuator_delay", "--budget", "17", "--passes", "1",
-                 "--candidates", "64", "--horizon", "10", "--out", str(out), "--no-progress"]) == 0
+                 "--candidates", "64", "--horizon", "10", "--no-mismatch", "--out", str(out), "--no-progress"]) == 0
     assert f"wrote {out / 'report.html'}" in capsys.readouterr().out
     page = (out / "report.html").read_text(encoding="utf-8")
     pngs = sorted(p.name for p in out.glob("*.png"))
