@@ -249,6 +249,7 @@ def _run(args: argparse.Namespace, objective: Any, decoder: Any) -> tuple[Any, A
     for note in dict.fromkeys(str(n.message) for n in caught):     # one line each, once
         _note(note)
     result.config["prior_box"] = box_record(objective.space)
+    result.config["effects"] = [e.config() for e in _effects(args)]      # the model identified (physics.model_file)
     if result.belief is None:       # run_preset builds one whenever a posterior mode is set, as here
         raise BeliefError("the identification returned no belief; the command line needs its posterior.")
     return result, result.belief.decoder(), result.belief.grid()

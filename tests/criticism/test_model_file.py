@@ -71,6 +71,7 @@ def test_diagnose_writes_the_model_with_the_stage_s_components_and_identify_uses
                  "--budget", "8", "--candidates", "64", "--out", str(out), "--no-progress"]) == 0
     result = xr.open_dataset(out / "result.nc")
     assert "anchor_offset" in [str(p) for p in result["parameter"].values]
+    assert json.loads(result.attrs["config"])["effects"] == [{"effect": "cable_anchors"}]
     box = json.loads((out / "prior_box.json").read_text())
     assert box["anchor_offset"]["upper"] == pytest.approx(0.1)
     with pytest.raises(SystemExit):         # one source of the model, not two
