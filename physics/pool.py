@@ -11,8 +11,11 @@ first use and kept until :meth:`DaskPool.close`, or an existing scheduler's ``ad
 A pool is quiet: the local cluster's HTTP server takes a free port (no "Port 8787 is already in
 use" when another cluster runs), and closing releases the scattered payload, then the client,
 then the cluster, with distributed's shutdown messages (workers leaving, scattered data lost,
-streams closed) silenced, since they are routine there. A pool left open is closed the same way
-at interpreter exit, before distributed's own exit handlers run.
+streams closed) silenced, since they are routine there. The worker processes log only CRITICAL
+messages (a heartbeat that finds the scheduler already closing is logged as an ERROR with a
+traceback); a task that fails or a worker that dies still reaches the caller as the future's
+exception. A pool left open is closed the same way at interpreter exit, before distributed's own
+exit handlers run.
 
 dask.distributed is imported only when a cluster is needed.
 """
@@ -120,7 +123,7 @@ class DaskPool:
             else:
                 try:
                     self._cluster = LocalCluster(n_workers=self.n_workers, threads_per_worker=1, processes=True,
-                                                 dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+                                                 dashboard_address="127.0.0.1:0", silence_logs=logging.CRITICAL)
                 except RuntimeError as exc:
                     raise PoolError(
                         f"Could not start a local dask cluster of n_workers={self.n_workers} ({exc}). Worker "
