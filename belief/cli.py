@@ -26,7 +26,7 @@ first trajectory for trajectory data), and journals to
 ``DIR/journal.sqlite`` (the latent stage to ``DIR/journal-latent.sqlite``) so an interrupted run
 resumes when re-run; a journal of another problem is set aside (``journal.1.sqlite``) unless
 ``--resume``. The prior box: ``--nominal NAME=VALUE``, ``--bounds NAME=LO:HI``, ``--params FILE``
-(physics.prior_box), saved as ``prior_box.json``. ``--effects a,b`` or ``--model DIR/model.json``
+(physics.prior_box), saved as ``prior_box.json``. ``--effects A B`` or ``--model DIR/model.json``
 (written by ``tensegrid diagnose``: the components and effects it added) identify the T6 with those
 effects, their parameters in their own boxes (physics.model_file). When the data files carry the θ that generated
 them (simulated data do), the summary shows it next to P's intervals. The data files are checked
@@ -93,9 +93,9 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
                    help="continue the journal (an error when it is missing or of another problem); without it a "
                         "journal of another problem is set aside as journal.1.sqlite and the run starts afresh")
     model = p.add_mutually_exclusive_group()
-    model.add_argument("--effects", default=None, metavar="NAME[,NAME...]",
+    model.add_argument("--effects", nargs="+", default=None, metavar="NAME",
                        help="identify the T6 with these effects, their parameters too (physics.effects.EFFECT_TYPES, "
-                            "e.g. tension_limited_actuator,cable_anchors)")
+                            "e.g. tension_limited_actuator cable_anchors)")
     model.add_argument("--model", default=None, metavar="FILE",
                        help="identify with the effects of a model file: DIR/model.json of tensegrid diagnose")
     add_prior_box_options(p)

@@ -19,8 +19,7 @@ from criticism.limits import require_diagnosable
 from criticism.mismatch import MismatchConfig
 from criticism.report import diagnosis_text, write_report
 from physics.cli_check import preflight
-from physics.effects import EFFECT_TYPES
-from physics.errors import ParameterError
+from physics.model_file import effects_by_name
 from physics.outputs import check_output_dir, output_dir
 from physics.parameters import ParameterSpace
 from physics.predictor import dt_option
@@ -105,12 +104,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     options = dt_option(getattr(args, "dt", None), data, name="--dt")   # StepSizeError before any identification
     for path, ds in zip(args.data, data, strict=True):
         print(f"{path}: " + "; ".join(describe_trajectory(ds)))
-    effects = None
-    if args.effects is not None:
-        unknown = sorted(set(args.effects) - set(EFFECT_TYPES))
-        if unknown:
-            raise ParameterError(f"unknown effect(s) {unknown}; known effects are {sorted(EFFECT_TYPES)}.")
-        effects = [EFFECT_TYPES[name]() for name in args.effects]
+    effects = None if args.effects is None else list(effects_by_name(args.effects))
     config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates, horizon=args.horizon,
                             seed=args.seed, mismatch=None if args.no_mismatch else MismatchConfig())
     _before_run(args, config)

@@ -9,7 +9,7 @@ parameters inside their own boxes (:class:`~physics.effects.Effect.parameters`):
      "theta": {"rod_length": 1.7, ..., "anchor_offset": 0.061}}
 
 ``theta`` is a record of where the writer ended (identify does not read it). ``effects_by_name``
-turns ``--effects a,b`` into the same list.
+turns ``--effects a b`` into the same list.
 """
 from __future__ import annotations
 
@@ -51,12 +51,11 @@ def read_model_file(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
     return effects
 
 
-def effects_by_name(text: str) -> tuple[Effect, ...]:
-    """Effects with default options from comma-separated names (physics.effects.EFFECT_TYPES)."""
-    names = [n.strip() for n in text.split(",") if n.strip()]
+def effects_by_name(names: Sequence[str]) -> tuple[Effect, ...]:
+    """Effects with default options from their names (physics.effects.EFFECT_TYPES), in that order."""
     unknown = [n for n in names if n not in EFFECT_TYPES]
     if unknown or not names:
-        raise ParameterError(f"unknown effect(s) {unknown or [text]} in --effects; known effects are "
+        raise ParameterError(f"unknown effect(s) {unknown or list(names)}; known effects are "
                              f"{', '.join(sorted(EFFECT_TYPES))}.")
     effects = tuple(EFFECT_TYPES[n]() for n in names)
     model_space(effects)

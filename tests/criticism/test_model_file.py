@@ -26,7 +26,7 @@ def test_a_model_file_reads_back_its_effects_in_order(tmp_path) -> None:
     effects = (TensionLimitedActuation(), CableAnchors())
     write_model_file(tmp_path / "model.json", effects, {"anchor_offset": 0.06})
     assert [e.name for e in read_model_file(tmp_path / "model.json")] == ["tension_limited_actuator", "cable_anchors"]
-    assert [e.name for e in effects_by_name("actuator_delay, cable_anchors")] == ["actuator_delay", "cable_anchors"]
+    assert [e.name for e in effects_by_name(["actuator_delay", "cable_anchors"])] == ["actuator_delay", "cable_anchors"]
 
 
 @pytest.mark.parametrize("text, says", [("{", "is not JSON"), ('{"theta": {}}', "needs a list 'effects'"),
@@ -40,7 +40,7 @@ def test_a_bad_model_file_is_refused_with_what_is_wrong(tmp_path, text: str, say
     with pytest.raises(ParameterError, match="cannot read the model file"):
         read_model_file(tmp_path / "missing.json")
     with pytest.raises(ParameterError, match="known effects are"):
-        effects_by_name("cable_anchors,magic")
+        effects_by_name(["cable_anchors", "magic"])
 
 
 @pytest.fixture(scope="module")
