@@ -55,8 +55,8 @@ def effects_by_name(names: Sequence[str]) -> tuple[Effect, ...]:
     """Effects with default options from their names (physics.effects.EFFECT_TYPES), in that order."""
     unknown = [n for n in names if n not in EFFECT_TYPES]
     if unknown or not names:
-        raise ParameterError(f"unknown effect(s) {unknown or list(names)}; known effects are "
-                             f"{', '.join(sorted(EFFECT_TYPES))}.")
+        what = f"unknown effect(s) {unknown}" if unknown else "no effect named"
+        raise ParameterError(f"{what}; known effects are {', '.join(sorted(EFFECT_TYPES))}.")
     effects = tuple(EFFECT_TYPES[n]() for n in names)
     model_space(effects)
     return effects

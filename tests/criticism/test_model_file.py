@@ -39,8 +39,10 @@ def test_a_bad_model_file_is_refused_with_what_is_wrong(tmp_path, text: str, say
         read_model_file(tmp_path / "model.json")
     with pytest.raises(ParameterError, match="cannot read the model file"):
         read_model_file(tmp_path / "missing.json")
-    with pytest.raises(ParameterError, match="known effects are"):
+    with pytest.raises(ParameterError, match=r"unknown effect\(s\) \['magic'\]; known effects are"):
         effects_by_name(["cable_anchors", "magic"])
+    with pytest.raises(ParameterError, match="no effect named"):
+        effects_by_name([])
 
 
 @pytest.fixture(scope="module")
