@@ -378,7 +378,8 @@ def run_identify(args: argparse.Namespace) -> int:
     from physics.outputs import check_output_dir, output_dir
 
     if bool(args.data) == (args.toy is not None):
-        print("tensegrid identify: give either DATA.nc files or --toy push (exactly one).", file=sys.stderr)
+        hint = " --effects takes every name after it: put it after the data files." if args.effects else ""
+        print(f"tensegrid identify: give either DATA.nc files or --toy push (exactly one).{hint}", file=sys.stderr)
         return 2
     objective = None
     try:

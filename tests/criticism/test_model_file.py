@@ -78,6 +78,8 @@ def test_diagnose_writes_the_model_with_the_stage_s_components_and_identify_uses
     assert box["anchor_offset"]["upper"] == pytest.approx(0.1)
     with pytest.raises(SystemExit):         # one source of the model, not two
         main(["identify", files[0], "--effects", "cable_anchors", "--model", "x.json", "--out", str(out)])
+    assert main(["identify", "--effects", "cable_anchors", files[0], "--out", str(tmp_path / "x")]) == 2
+    assert "put it after the data files" in capsys.readouterr().err
     assert main(["identify", "--toy", "push", "--effects", "cable_anchors", "--out", str(tmp_path / "toy")]) == 2
     assert "the push toy has none" in capsys.readouterr().err
     assert not (tmp_path / "toy").exists()
