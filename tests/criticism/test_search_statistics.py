@@ -101,7 +101,8 @@ def test_one_effect_is_found_alone_without_the_pair() -> None:
 
 
 def test_two_effects_that_hide_each_other_are_found_through_the_pair() -> None:
-    """Each alone explains ~5 % (its 3u part is cancelled by the other's), so neither passes alone;
+    """Each alone explains a few % at most (its 3u part is cancelled by the other's: the best
+    multiple of 3u + v for v + w is 0.1), so neither passes alone;
     together they explain the signal v + w, and each has strong evidence given the other."""
     crit = _criticize({"air_drag": 1.0, "point_mass": 1.0})
     assert all(c.explained < 0.3 for c in crit.ranking), [(c.name, c.explained) for c in crit.ranking]
