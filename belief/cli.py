@@ -119,7 +119,7 @@ def _push_objective(seed: int, space: Any) -> tuple[Any, Any]:
     return PushObjective(impulses, observed, space=space, noise_std=0.05), truth
 
 
-def _plot_rollouts(args: argparse.Namespace, dataset: Any, space: Any, result: Any, path: str, *,
+def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, effects: tuple[Any, ...], *,
                    title: str = "") -> None:
     """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ, for one trajectory;
     the figure says why when the best θ's rollout drifts further than the nominal one's."""
@@ -131,7 +131,7 @@ def _plot_rollouts(args: argparse.Namespace, dataset: Any, space: Any, result: A
     thetas = {"nominal": space.nominal, "best": result.best_theta.values,
               "posterior mean": result.marginals["mean"].values}
     preds = {}
-    with TrajectoryObjective([dataset], horizon="rollout", n_workers=0, effects=_effects(args)) as roll:
+    with TrajectoryObjective([dataset], horizon="rollout", n_workers=0, effects=effects) as roll:
         for name, th in thetas.items():
             try:
                 preds[name] = roll.predictions(th)[0]
@@ -157,12 +157,12 @@ def _data_truth(datasets: list[Any], space: Any) -> Any:
     return first if same else None
 
 
-def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
+def _objective(args: argparse.Namespace, effects: tuple[Any, ...]) -> tuple[Any, Any, list[Any]]:
     """(objective, true θ or None, datasets) from the data files or the toy, over the prior box of
-    --nominal, --bounds and --params (validated before the data are loaded)."""
+    --nominal, --bounds and --params (validated before the data are loaded), with ``effects``."""
     from physics.prior_box import prior_box_from_args
 
-    space = prior_box_from_args(args, _default_space(args))
+    space = prior_box_from_args(args, _default_space(args, effects))
     if args.toy == "push":
         objective, truth = _push_objective(args.seed, space)
         return objective, truth, []
@@ -178,7 +178,7 @@ def _objective(args: argparse.Namespace) -> tuple[Any, Any, list[Any]]:
         preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
     objective = TrajectoryObjective(datasets, space=space, horizon=1, loss=args.loss, windows=args.windows,
                                 options=options, n_workers=args.workers if args.workers > 1 else 0,
-                                effects=_effects(args))
+                                effects=effects)
     return objective, _data_truth(datasets, objective.space), datasets
 
 
@@ -225,7 +225,7 @@ def _preset(args: argparse.Namespace) -> Any:
     return replace(preset, candidates=args.candidates, points_per_dim=args.points_per_dim or 11)
 
 
-def _run(args: argparse.Namespace, objective: Any, decoder: Any) -> tuple[Any, Any, Any]:
+def _run(args: argparse.Namespace, objective: Any, decoder: Any, effects: tuple[Any, ...]) -> tuple[Any, Any, Any]:
     """(result, decoder, grid of P) of the preset with the command line's options; a budget warning goes
     into the summary, not stderr; a journal of another problem is set aside unless --resume."""
     import warnings
@@ -249,13 +249,14 @@ def _run(args: argparse.Namespace, objective: Any, decoder: Any) -> tuple[Any, A
     for note in dict.fromkeys(str(n.message) for n in caught):     # one line each, once
         _note(note)
     result.config["prior_box"] = box_record(objective.space)
-    result.config["effects"] = [e.config() for e in _effects(args)]      # the model identified (physics.model_file)
+    result.config["effects"] = [e.config() for e in effects]      # the model identified (physics.model_file)
     if result.belief is None:       # run_preset builds one whenever a posterior mode is set, as here
         raise BeliefError("the identification returned no belief; the command line needs its posterior.")
     return result, result.belief.decoder(), result.belief.grid()
 
 
-def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth: Any, datasets: list[Any]) -> None:
+def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth: Any, datasets: list[Any],
+           effects: tuple[Any, ...]) -> None:
     """result.nc, summary.txt, marginals.csv, history.csv, the figures and report.html into ``args.out``."""
     import numpy as np
     import pandas as pd
@@ -282,7 +283,8 @@ def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth
     if datasets:
         title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
                  if len(datasets) > 1 else "")
-        _plot_rollouts(args, datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), title=title)
+        _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), effects,
+                       title=title)
     plot_pairs(result.belief, os.path.join(out, "pairs.png"), truth=truth)
     write_identify_report(out, result, args, datasets, truth=truth)
 
@@ -304,13 +306,12 @@ def _effects(args: argparse.Namespace) -> tuple[Any, ...]:
     return effects_by_name(effects) if effects else read_model_file(model) if model else ()
 
 
-def _default_space(args: argparse.Namespace) -> Any:
-    """The parameter space before --nominal, --bounds and --params: the push toy's, or the T6's with the
-    effects of --effects or --model."""
+def _default_space(args: argparse.Namespace, effects: tuple[Any, ...]) -> Any:
+    """The parameter space before --nominal, --bounds and --params: the push toy's, or the T6's with
+    ``effects`` (those of --effects or --model)."""
     from physics.effects import model_space
     from physics.push import push_space
 
-    effects = _effects(args)            # refused with the toy
     return push_space() if args.toy == "push" else model_space(effects)
 
 
@@ -346,7 +347,7 @@ def _budget_note(args: argparse.Namespace, decoder: Any, dim: int) -> str | None
             f"--budget {args.budget - search + n_init + 1} or more.")
 
 
-def _before_run(args: argparse.Namespace, objective: Any, decoder: Any) -> None:
+def _before_run(args: argparse.Namespace, objective: Any, decoder: Any, effects: tuple[Any, ...]) -> None:
     """The checks and notes due before anything is written: the budget, a journal to --resume, the
     prior box (printed when it differs from the default) and a budget that leaves BO no step."""
     from belief.errors import BudgetError, JournalError
@@ -363,7 +364,7 @@ def _before_run(args: argparse.Namespace, objective: Any, decoder: Any) -> None:
         latent = None if journal is None else os.path.splitext(journal)[0] + "-latent.sqlite"
         if journal is None or not (os.path.exists(journal) or os.path.exists(str(latent))):
             raise JournalError(f"--resume: no journal at {journal} to resume; run without --resume to start one.")
-    changes = box_changes(objective.space, _default_space(args))
+    changes = box_changes(objective.space, _default_space(args, effects))
     if changes:
         print(f"prior box: {len(changes)} of {objective.space.dim} parameters differ from the default:\n  "
               + "\n  ".join(changes))
@@ -384,11 +385,12 @@ def run_identify(args: argparse.Namespace) -> int:
     objective = None
     try:
         check_output_dir(args.out)
-        objective, truth, datasets = _objective(args)
+        effects = _effects(args)            # the model file is read once; refused with the toy
+        objective, truth, datasets = _objective(args, effects)
         decoder = _latent_decoder(args, objective.space)
-        _before_run(args, objective, decoder)
+        _before_run(args, objective, decoder, effects)
         with output_dir(args.out):          # removed again if the run fails before writing into it
-            result, decoder, grid = _run(args, objective, decoder)
+            result, decoder, grid = _run(args, objective, decoder, effects)
     except TensegridError as exc:
         print(f"tensegrid identify: {exc}", file=sys.stderr)
         return 2
@@ -396,7 +398,7 @@ def run_identify(args: argparse.Namespace) -> int:
         close = getattr(objective, "close", None)
         if callable(close):
             close()
-    _write(args, result, decoder, grid, truth, datasets)
+    _write(args, result, decoder, grid, truth, datasets, effects)
     with open(os.path.join(args.out, "prior_box.json"), "w") as fh:     # a --params file of this run's box
         json.dump(result.config["prior_box"], fh, indent=1)
     print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
