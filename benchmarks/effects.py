@@ -143,13 +143,14 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str]) -> 
     from dataclasses import replace
 
     from testbed.datasets import make_dataset, robot_for
+    from testbed.record import Observation
     effects = robot_for(name, seed)[0].effects
     observed = held["nodes"].values
     costs = {}
     for effect in names:
         off = replace(effects, **{f: 0.0 for f in TESTBED_FIELDS[effect]})
         with tempfile.TemporaryDirectory() as tmp:
-            make_dataset(name, seed, tmp, effects=off)
+            make_dataset(name, seed, tmp, effects=off, obs=Observation(noise=0.0))
             without = load_trajectory(Path(tmp) / "heldout_0.nc")["nodes"].values
         costs[effect] = float(np.sqrt(np.nanmean((without - observed) ** 2)))
     return max(costs, key=costs.get)
