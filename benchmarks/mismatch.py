@@ -21,10 +21,14 @@ targets (both ratios at most 0.5).
     .venv/bin/python benchmarks/mismatch.py --dataset perturbed --seeds 2 --noise 0.001
     .venv/bin/python benchmarks/mismatch.py --summarize .cache/mismatch/rows.jsonl
     .venv/bin/python benchmarks/mismatch.py --source own --dataset actuator_delay --seeds 2 --first-seed 0
+    .venv/bin/python benchmarks/mismatch.py --seeds 3 --first-seed 2 --rounds 3 \
+        --components tension_limited_actuator cable_anchors fixed_anchors end_cap_radius cylinder_caps \
+        --out benchmarks/results/mismatch-components.jsonl
 
 ``--source own`` runs the stage on the project's own engine (the scenarios of benchmarks/effects.py,
 1.5 s flops), where it should keep nothing.
 
+``--components`` and ``--rounds`` change the stage (give such runs their own ``--out``).
 Rows are appended to ``--out`` (JSON lines); a (dataset, seed, noise) already there is skipped.
 """
 from __future__ import annotations
@@ -33,6 +37,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +46,7 @@ from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, absorb_mismatch, held_scores
 from physics import ReplayController, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES
+from physics.model_file import effects_by_name
 
 LABELS = ("flop_0", "flop_1", "heldout_0")
 
@@ -56,16 +62,17 @@ def load(source: str, dataset: str, seed: int, noise: float) -> list:
     return [load_trajectory(files[label]) for label in LABELS]
 
 
-def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed") -> dict:
+def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed",
+            config: MismatchConfig = MismatchConfig()) -> dict:
     """The stage on one data set; the benchmark's row (JSON-ready)."""
     data = load(source, dataset, seed, noise)
     start = time.perf_counter()
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
-        config = MismatchConfig()
         report = absorb_mismatch(objective, fit, [2], config=config, progress=False)
         nominal = held_scores(objective, objective.space.nominal, [2], config.drift_time)
-    row = {"source": source, "dataset": dataset, "seed": seed, "noise": noise, "kept": [e.name for e in report.effects],
+    row = {"source": source, "components": [c.name for c in config.components], "rounds": config.rounds,
+           "dataset": dataset, "seed": seed, "noise": noise, "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
             "trials": [{"round": t.round, "name": t.name, "gain": t.gain, "values": t.values} for t in report.trials],
             "nominal": nominal.totals(), "before": report.before.totals(), "after": report.after.totals(),
@@ -132,6 +139,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--noise", type=float, default=0.0002, help="observation noise of the data set [m]")
     ap.add_argument("--workers", type=int, default=2, help="worker processes of the re-tuning")
     ap.add_argument("--out", default=".cache/mismatch/rows.jsonl", help="rows are appended here (JSON lines)")
+    ap.add_argument("--components", nargs="+", default=None, metavar="EFFECT",
+                    help="the stage's component changes, in order (default: MismatchConfig's; e.g. "
+                         "tension_limited_actuator cable_anchors fixed_anchors end_cap_radius cylinder_caps)")
+    ap.add_argument("--rounds", type=int, default=None, help="most components kept (default: MismatchConfig's)")
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
     if args.summarize:
@@ -147,11 +158,16 @@ def main(argv: list[str] | None = None) -> int:
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
     args.dataset = args.dataset or ("nominal" if args.source == "testbed" else "none")
     key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"]): r for r in saved}
+    config = MismatchConfig()
+    if args.components:
+        config = replace(config, components=tuple(effects_by_name(args.components)))
+    if args.rounds is not None:
+        config = replace(config, rounds=args.rounds)
     rows = []
     for seed in seeds:
         row = key.get((args.source, args.dataset, seed, args.noise))
         if row is None:
-            row = run_one(args.dataset, seed, args.noise, args.workers, args.source)
+            row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(f"{args.dataset} seed {seed}: kept {row['kept']}, {row['seconds']:.0f} s", flush=True)

@@ -48,7 +48,8 @@ __all__ = ["MismatchConfig", "Trial", "HeldScores", "MismatchReport", "absorb_mi
            "held_scores", "measured_rod_length", "FREQUENCY_BANDS"]
 
 #: Effects that replace the same component: at most one of each group in a model.
-COMPONENT_GROUPS: tuple[frozenset[str], ...] = (frozenset({"rate_limited_actuator", "tension_limited_actuator"}),)
+COMPONENT_GROUPS: tuple[frozenset[str], ...] = (frozenset({"rate_limited_actuator", "tension_limited_actuator"}),
+                                                 frozenset({"cable_anchors", "fixed_anchors"}))
 #: Edges [Hz] of the frequency bands of :func:`localize` (the last band runs to the Nyquist frequency).
 FREQUENCY_BANDS: tuple[float, ...] = (0.0, 1.0, 5.0, 15.0)
 

@@ -163,7 +163,7 @@ class T6Model:
         self.build_rest_length = build_rest_lengths(p)
         self.encoder_zero = build_rest_lengths(dict(zip(self.space.names, self.space.nominal.tolist(), strict=True)))
         self.encoder_offset = self.build_rest_length - self.encoder_zero
-        c_spin = self.options.spin_damping
+        c_spin = self.options.spin_damping if self.setup.spin_damping is None else self.setup.spin_damping
         self._spin_coefficient = c_spin / (1.0 + c_spin * self.options.dt / self.mass_properties.axial)
         self._cable_args = self.setup.cable.args()
         self._pending: deque = deque()
@@ -191,8 +191,8 @@ class T6Model:
             body.setName(f"rod{i}")
             self._set_inertia(body, i)
             for sign in (-1.0, 1.0):
-                cap = body.createShapeNode(dart.dynamics.SphereShape(self.setup.cap_radius))
-                cap.setRelativeTranslation([0.0, 0.0, sign * 0.5 * p["rod_length"]])
+                cap = body.createShapeNode(self._cap_shape())
+                cap.setRelativeTranslation([0.0, 0.0, sign * 0.5 * (p["rod_length"] - self.setup.cap_length)])
                 cap.createCollisionAspect()
                 cap.createDynamicsAspect().setFrictionCoeff(opt.friction)
                 cap.getDynamicsAspect().setRestitutionCoeff(0.0)
@@ -211,6 +211,13 @@ class T6Model:
             ground.setMobile(False)
             world.addSkeleton(ground)
         self.world, self.robot = world, robot
+
+    def _cap_shape(self) -> dart.dynamics.Shape:
+        """A sphere of the contact radius centred on the node, or (``setup.cap_length`` > 0) a cylinder
+        of that radius and length whose outer face is centred on the node."""
+        if self.setup.cap_length > 0:
+            return dart.dynamics.CylinderShape(self.setup.cap_radius, self.setup.cap_length)
+        return dart.dynamics.SphereShape(self.setup.cap_radius)
 
     def _set_inertia(self, body: dart.dynamics.BodyNode, rod: int) -> None:
         """Mass, inertia about the centre of mass and its offset along the axis, with point masses
@@ -237,9 +244,7 @@ class T6Model:
 
     def reset(self) -> None:
         """Back to the build configuration: at rest, rest lengths = L0_build, motors still."""
-        q, dq = rod_poses_from_nodes(self.initial_nodes())
-        self._set_positions(q)
-        self._set_velocities(dq)
+        self._place(self.initial_nodes(), None)
         self.world.setTime(0.0)
         self.rest_length = self.build_rest_length.copy()
         self.motor_speed = np.zeros(N_CABLES)
@@ -276,6 +281,8 @@ class T6Model:
             for term in self.setup.force_terms:
                 term(nodes, velocities, extra)
             add_node_forces(axes, self.half_lengths, extra, self._forces)
+        for wrench in self.setup.wrench_terms:
+            wrench(q, dq, self._forces)
         return fastest
 
     def command(self, target_readings: np.ndarray | None, reference: str = "encoder") -> None:
@@ -361,11 +368,17 @@ class T6Model:
 
     def set_nodes(self, nodes: np.ndarray, node_velocities: np.ndarray | None = None) -> None:
         """Place the rods at observed node positions (12 x 3) and velocities (12 x 3)."""
-        q, dq = rod_poses_from_nodes(np.asarray(nodes, float),
-                                     None if node_velocities is None else np.asarray(node_velocities, float))
+        self._place(np.asarray(nodes, float), None if node_velocities is None else np.asarray(node_velocities, float))
+        self._update_cables()
+
+    def _place(self, nodes: np.ndarray, node_velocities: np.ndarray | None) -> None:
+        """Rods at node positions and velocities (12 x 3 each; no spin about their axes), turned
+        about their axes by the effects' ``orient`` if one is set."""
+        q, dq = rod_poses_from_nodes(nodes, node_velocities)
+        if self.setup.orient is not None:
+            q = self.setup.orient(q)
         self._set_positions(q)
         self._set_velocities(dq)
-        self._update_cables()
 
     # ------------------------------------------------------------------ observations
     def node_positions(self) -> np.ndarray:

@@ -1,9 +1,9 @@
 """physics.effects: physical effects as composable parts of the T6 model (base: the contract;
-world, forces, components, sensing: the catalog; actuation, anchors: components of the mismatch
-stage; catalog: all of them by name)."""
+world, forces, components, sensing: the catalog; actuation, anchors, fixed_anchors: components of
+the mismatch stage; catalog: all of them by name)."""
 from physics.effects.actuation import TensionLimitedActuation
 from physics.effects.anchors import CableAnchors
-from physics.effects.base import Effect, ForceTerm, ModelSetup, model_space, split_theta
+from physics.effects.base import Effect, ForceTerm, ModelSetup, WrenchTerm, model_space, split_theta
 from physics.effects.catalog import EFFECT_TYPES, catalog, effect_from_config
 from physics.effects.components import (
     ActuatorDelay,
@@ -12,11 +12,12 @@ from physics.effects.components import (
     NonlinearStiffness,
     RateLimitedActuation,
 )
+from physics.effects.fixed_anchors import FixedCableAnchors
 from physics.effects.forces import AirDrag, GroundViscosity
 from physics.effects.sensing import SensorBias
-from physics.effects.world import EndCapRadius, GroundSlope, PointMass
+from physics.effects.world import CylinderCaps, EndCapRadius, GroundSlope, PointMass
 
-__all__ = ["Effect", "ForceTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
+__all__ = ["Effect", "ForceTerm", "WrenchTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
            "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness",
-           "RateLimitedActuation", "TensionLimitedActuation", "CableAnchors",
-           "AirDrag", "GroundViscosity", "SensorBias", "EndCapRadius", "GroundSlope", "PointMass"]
+           "RateLimitedActuation", "TensionLimitedActuation", "CableAnchors", "FixedCableAnchors",
+           "AirDrag", "GroundViscosity", "SensorBias", "EndCapRadius", "CylinderCaps", "GroundSlope", "PointMass"]

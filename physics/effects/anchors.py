@@ -35,7 +35,7 @@ from physics.errors import PhysicsError
 from physics.geometry import CABLE_NODES, node_positions
 from physics.parameters import Parameter
 
-__all__ = ["CableAnchors", "anchor_points", "anchor_forces"]
+__all__ = ["CableAnchors", "TensionTap", "anchor_points", "anchor_forces"]
 
 _A = np.ascontiguousarray(CABLE_NODES[:, 0])
 _B = np.ascontiguousarray(CABLE_NODES[:, 1])
@@ -104,7 +104,7 @@ def anchor_forces(nodes: np.ndarray, tension: np.ndarray, offset: float, stiffne
         _at_anchor(nodes, b, pb, -f, out)
 
 
-class _TensionTap:
+class TensionTap:
     """The model's actuator, unchanged, that keeps a reference to the tension array it is stepped with."""
 
     def __init__(self, inner: Actuator) -> None:
@@ -141,7 +141,7 @@ class CableAnchors(Effect):
         anchors = anchor_points(build, offset)
         delta = (np.linalg.norm(anchors[:, 1] - anchors[:, 0], axis=1)
                  - np.linalg.norm(build[_B] - build[_A], axis=1))
-        tap = _TensionTap(setup.actuator)
+        tap = TensionTap(setup.actuator)
         setup.actuator = tap
         stiffness = float(params["stiffnessActive"])
 

@@ -6,9 +6,13 @@ bounds; ``nominal`` is the value that switches the effect off when one exists, s
 model before its world is built. Through the setup an effect may
 
 - change the world's setup: the gravity vector (a tilted ground), the contact radius of the end
-  caps, point masses on rods;
+  caps and their shape (``cap_length`` 0: spheres at the nodes; > 0: cylinders of that length
+  ending at the nodes), point masses on rods;
 - add forces each physics step: ``force_terms``, kernels ``f(nodes, velocities, out)`` that add
-  node forces (12 x 3) [N];
+  node forces (12 x 3) [N]; ``wrench_terms``, kernels ``f(q, dq, out)`` that add the rods'
+  generalised forces (36,) (torques about a rod's own axis, which node forces cannot carry);
+- change the rods' spin: ``spin_damping`` (the axial damper [N m s]; None keeps the model's
+  option) and ``orient``, which turns rods placed from nodes about their own axes (q (36,) -> q);
 - replace a component: the cable law's coefficients (``cable``), the actuator (``actuator``),
   the delay between a command and the actuator seeing it (``command_delay``), an offset (24,)
   [m] added to every command (``command_offset``);
@@ -34,10 +38,13 @@ from physics.parameters import Parameter, ParameterSpace
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["Effect", "ModelSetup", "ForceTerm", "model_space", "split_theta"]
+__all__ = ["Effect", "ModelSetup", "ForceTerm", "WrenchTerm", "model_space", "split_theta"]
 
 #: f(nodes (12 x 3) [m], velocities (12 x 3) [m/s], out (12 x 3) [N]): add node forces into ``out``.
 ForceTerm = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
+#: f(q (36,), dq (36,), out (36,)): add FreeJoint generalised forces (per rod: world torque about its
+#: centre [N m], world force [N]) into ``out``, from FreeJoint positions and velocities.
+WrenchTerm = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
 
 
 @dataclass
@@ -58,6 +65,10 @@ class ModelSetup:
     command_offset: np.ndarray = field(default_factory=lambda: np.zeros(24))
     point_masses: list[tuple[int, float, float]] = field(default_factory=list)
     force_terms: list[ForceTerm] = field(default_factory=list)
+    wrench_terms: list[WrenchTerm] = field(default_factory=list)
+    cap_length: float = 0.0
+    spin_damping: float | None = None
+    orient: Callable[[np.ndarray], np.ndarray] | None = None
     observation_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     ground_normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 

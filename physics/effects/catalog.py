@@ -11,9 +11,10 @@ from physics.effects.components import (
     NonlinearStiffness,
     RateLimitedActuation,
 )
+from physics.effects.fixed_anchors import FixedCableAnchors
 from physics.effects.forces import AirDrag, GroundViscosity
 from physics.effects.sensing import SensorBias
-from physics.effects.world import EndCapRadius, GroundSlope, PointMass
+from physics.effects.world import CylinderCaps, EndCapRadius, GroundSlope, PointMass
 from physics.errors import ParameterError
 
 __all__ = ["EFFECT_TYPES", "catalog", "effect_from_config"]
@@ -22,9 +23,10 @@ _CATALOG = (GroundSlope, AirDrag, GroundViscosity, CableHysteresis, NonlinearSti
             RateLimitedActuation, SensorBias, EndCapRadius, PointMass)
 
 #: Every effect class, by name: the catalog's, then those criticism does not try by default (EncoderOffset;
-#: TensionLimitedActuation and CableAnchors, components of the mismatch stage, criticism.mismatch).
-EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in
-                                        _CATALOG + (EncoderOffset, TensionLimitedActuation, CableAnchors)}
+#: TensionLimitedActuation, CableAnchors, FixedCableAnchors and CylinderCaps, components of the mismatch stage,
+#: criticism.mismatch).
+EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in _CATALOG + (
+    EncoderOffset, TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps)}
 
 
 def catalog() -> tuple[Effect, ...]:

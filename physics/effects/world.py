@@ -69,6 +69,29 @@ class EndCapRadius(Effect):
         setup.cap_radius = radius
 
 
+class CylinderCaps(Effect):
+    """The rods touch the ground with their end cylinders instead of spheres at the nodes: a cylinder
+    of radius ``radius`` (the contact radius, :class:`EndCapRadius` included) and length
+    l_e = (rod_length − rod_length_mp) / 2 whose outer face is centred on the node, as the rod's
+    mass model already has it (physics.geometry.rod_mass_properties). A tilted rod then rests on
+    the rim of its end face, its node r cos α above the floor (α: the rod's tilt), not r. A
+    replacement without parameters of its own."""
+
+    name = "cylinder_caps"
+    description = "the rods touch the ground with their end cylinders, not with spheres at the nodes"
+    switchable = False
+
+    def parameters(self) -> tuple[Parameter, ...]:
+        return ()
+
+    def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
+        length = 0.5 * (params["rod_length"] - params["rod_length_mp"])
+        if length <= 0.005:
+            raise ParameterError(f"cylinder_caps needs end segments longer than 5 mm: rod_length − rod_length_mp = "
+                                 f"{2 * length:.4f} m.")
+        setup.cap_length = float(length)
+
+
 class PointMass(Effect):
     """A point mass ``point_mass`` [kg] on the axis of rod ``rod`` at ``position`` × half the rod
     length from its centre (toward node 2·rod + 1): a sensor box or battery nobody modelled."""

@@ -22,7 +22,9 @@ from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, absorb_mismatch, superseded
 from physics import FlopController, TrajectoryObjective, load_trajectory, simulate
 from physics.actuators import MotorGains, tension_limited_step
-from physics.effects import CableAnchors, RateLimitedActuation, TensionLimitedActuation, model_space
+from physics.effects import (
+    CableAnchors, CylinderCaps, FixedCableAnchors, RateLimitedActuation, TensionLimitedActuation, model_space,
+)
 from physics.effects.anchors import anchor_forces
 from physics.errors import PhysicsError
 from physics.geometry import node_positions
@@ -84,6 +86,8 @@ def test_superseded_drops_other_actuators() -> None:
     names = [e.name for e in superseded([RateLimitedActuation(), CableAnchors(), TensionLimitedActuation()], kept)]
     assert names == ["cable_anchors"]
     assert MotorGains().kp > 0       # the motor model stays the default actuator
+    anchors = superseded([FixedCableAnchors(), CylinderCaps()], [CableAnchors()])
+    assert [e.name for e in anchors] == ["cylinder_caps"]     # one anchor law in a model
 
 
 def _stage(data: list, components: tuple, rounds: int):

@@ -7,7 +7,7 @@ import pytest
 
 from physics import FlopController, ModelOptions, ParameterError, T6Model, TrajectoryObjective, simulate
 from physics.effects import (
-    EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, EndCapRadius, GroundSlope, NonlinearStiffness,
+    EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, CylinderCaps, EndCapRadius, GroundSlope, NonlinearStiffness,
     PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
 )
 from physics.effects.world import slope_normal
@@ -105,6 +105,19 @@ def test_caps_rest_on_their_contact_radius():
     model = T6Model(_theta(effects, cap_radius_change=-0.03), effects=effects)
     model.settle(1.5)
     assert np.sort(model.node_positions()[:, 2])[:3] == pytest.approx(0.03, abs=3e-3)
+
+
+def test_cylinder_caps_rest_on_the_rim_of_their_end_faces():
+    """A rod tilted by α from the floor rests on its end face's rim: its lowest node r cos α high."""
+    model = T6Model(_theta([CylinderCaps()]), effects=[CylinderCaps()])
+    model.settle(1.5)
+    nodes = model.node_positions()
+    low = np.argsort(nodes[:, 2])[:3]
+    axes = nodes[low ^ 1] - nodes[low]
+    cos_tilt = np.linalg.norm(axes[:, :2], axis=1) / np.linalg.norm(axes, axis=1)
+    radius = model.params["radius"]
+    assert np.all(cos_tilt < 0.95)
+    assert nodes[low, 2] == pytest.approx(radius * cos_tilt, abs=1e-3)
 
 
 def test_delayed_commands_reach_the_actuators_after_the_delay():

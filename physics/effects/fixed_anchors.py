@@ -1,0 +1,178 @@
+"""Cable anchors fixed to the rods: each cable end sits on the end cap's rim, ``anchor_offset`` [m]
+off the axis, at a point of the rod's body frame (as on SUPERball, and in engines that attach
+cables to rigid bodies), so a rod turns about its own axis under the cables' torque.
+
+:class:`~physics.effects.anchors.CableAnchors` re-aims every anchor toward the cable's other end
+at each step, so the cables never twist a rod; here the anchors turn with the rod. For cable j
+between rods r_a, r_b (centres c, rotations R, body-frame anchors ℓ_a, ℓ_b set at build toward the
+other end, as CableAnchors places them there):
+
+    p_a = c_a + R_a ℓ_a,   p_b = c_b + R_b ℓ_b,   ê = unit(p_b - p_a)
+    T_j' = max(0, T_j + k ((|p_b - p_a| - |n_b - n_a|) - δ_j) + c (dL_p/dt - dL_n/dt))
+
+with T_j the node cable's tension, δ_j = L_anchor,build - L_node,build (assembled anchor to anchor
+with the same pretension), dL/dt the rates of the anchor-to-anchor and node-to-node lengths. Each
+step the node cable's wrench is removed and T_j' ê applied at the anchors, with its full torque
+about each rod's centre (the axial part included). The cables themselves resist and damp the
+spin, so the model's axial spin damper is switched off (``ModelSetup.spin_damping = 0``).
+
+The spin about a rod's axis is not in the observed nodes. When rods are placed from nodes (build,
+or an observed sample), each rod is turned about its axis by the angle φ that best aims its
+anchors at their cables' other ends (least squares on the circle, per rod over its 8 anchors
+with body-frame angles α_k and aimed angles β_k: φ = atan2(Σ sin(β_k − α_k), Σ cos(β_k − α_k))),
+the pose in which the cables exert no axial torque on a resting rod.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numba import njit
+from scipy.spatial.transform import Rotation
+
+from physics.effects.anchors import TensionTap, anchor_points
+from physics.effects.base import Effect, ModelSetup
+from physics.errors import PhysicsError
+from physics.geometry import CABLE_NODES, node_positions, rod_poses_from_nodes
+from physics.parameters import Parameter
+
+__all__ = ["FixedCableAnchors", "body_anchors", "fixed_anchor_wrenches", "orient_rods"]
+
+_A = np.ascontiguousarray(CABLE_NODES[:, 0])
+_B = np.ascontiguousarray(CABLE_NODES[:, 1])
+
+
+@njit(cache=True)
+def _rotation(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3 x 3) of the rotation vector w (3,) (Rodrigues)."""
+    angle = np.sqrt((w * w).sum())
+    out = np.eye(3)
+    if angle < 1e-12:
+        out[0, 1], out[0, 2], out[1, 2] = -w[2], w[1], -w[0]
+        out[1, 0], out[2, 0], out[2, 1] = w[2], -w[1], w[0]
+        return out
+    k = w / angle
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return out + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
+
+
+@njit(cache=True)
+def _add_wrench(out: np.ndarray, rod: int, arm: np.ndarray, force: np.ndarray) -> None:
+    """Add a force (3,) [N] applied at ``arm`` (3,) from the rod's centre to its generalised forces."""
+    out[6 * rod] += arm[1] * force[2] - arm[2] * force[1]
+    out[6 * rod + 1] += arm[2] * force[0] - arm[0] * force[2]
+    out[6 * rod + 2] += arm[0] * force[1] - arm[1] * force[0]
+    out[6 * rod + 3:6 * rod + 6] += force
+
+
+@njit(cache=True)
+def _point(c: np.ndarray, v: np.ndarray, w: np.ndarray, arm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity of the point ``arm`` (3,) off a body's centre c (3,) moving with v, ω (3,)."""
+    return c + arm, v + np.cross(w, arm)
+
+
+@njit(cache=True)
+def fixed_anchor_wrenches(q: np.ndarray, dq: np.ndarray, half: np.ndarray, local: np.ndarray, tension: np.ndarray,
+                          stiffness: float, damping: float, delta: np.ndarray, out: np.ndarray) -> None:
+    """Add to the generalised forces ``out`` (36,) the anchored cables' wrenches minus the node
+    cables' (module docstring). q, dq: FreeJoint positions and velocities (36,); half: half rod
+    lengths (6,); local: body-frame anchors (24 x 2 x 3) [m]; tension: node-cable tensions (24,) [N]."""
+    for j in range(_A.shape[0]):
+        ends = (_A[j], _B[j])
+        node_p, node_v, anc_p, anc_v = np.empty((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.empty((2, 3))
+        for s in range(2):
+            r = ends[s] // 2
+            rot = _rotation(q[6 * r:6 * r + 3])
+            c, w, v = q[6 * r + 3:6 * r + 6], dq[6 * r:6 * r + 3], dq[6 * r + 3:6 * r + 6]
+            sign = 1.0 if ends[s] % 2 == 1 else -1.0
+            node_p[s], node_v[s] = _point(c, v, w, sign * half[r] * rot[:, 2])
+            anc_p[s], anc_v[s] = _point(c, v, w, rot @ local[j, s])
+        d = node_p[1] - node_p[0]
+        length = np.sqrt((d * d).sum())
+        u = d / length
+        e = anc_p[1] - anc_p[0]
+        anchored = np.sqrt((e * e).sum())
+        ue = e / anchored
+        rate_n = ((node_v[1] - node_v[0]) * u).sum()
+        rate_a = ((anc_v[1] - anc_v[0]) * ue).sum()
+        t_node = tension[j]
+        t_anchor = 0.0
+        if t_node > 0.0:
+            t_anchor = max(0.0, t_node + stiffness * ((anchored - length) - delta[j]) + damping * (rate_a - rate_n))
+        ra, rb = ends[0] // 2, ends[1] // 2
+        ca, cb = q[6 * ra + 3:6 * ra + 6], q[6 * rb + 3:6 * rb + 6]
+        _add_wrench(out, ra, node_p[0] - ca, -t_node * u)
+        _add_wrench(out, rb, node_p[1] - cb, t_node * u)
+        _add_wrench(out, ra, anc_p[0] - ca, t_anchor * ue)
+        _add_wrench(out, rb, anc_p[1] - cb, -t_anchor * ue)
+
+
+def body_anchors(rod_length: float, rod_space: float, offset: float) -> np.ndarray:
+    """Body-frame anchors (24 x 2 x 3) [m]: the anchors of CableAnchors at the build layout, in the
+    frame rod_poses_from_nodes gives each rod there (origin at its centre, z along its axis)."""
+    build = node_positions(rod_length, rod_space)
+    world = anchor_points(build, offset)
+    q, _ = rod_poses_from_nodes(build)
+    rot = Rotation.from_rotvec(q.reshape(6, 6)[:, :3]).as_matrix()
+    centre = q.reshape(6, 6)[:, 3:]
+    out = np.empty_like(world)
+    for s, ends in enumerate((_A, _B)):
+        rods = ends // 2
+        out[:, s] = np.einsum("jba,jb->ja", rot[rods], world[:, s] - centre[rods])
+    return out
+
+
+def orient_rods(q: np.ndarray, local: np.ndarray, offset: float, half: float) -> np.ndarray:
+    """FreeJoint positions ``q`` (36,) with each rod (half length ``half`` [m]) turned about its own
+    axis so that its anchors ``local`` (24 x 2 x 3) best aim at their cables' other ends (module docstring)."""
+    q = np.array(q, dtype=float).reshape(6, 6)
+    rot = Rotation.from_rotvec(q[:, :3]).as_matrix()
+    tips = half * np.stack([-rot[:, :, 2], rot[:, :, 2]], axis=1)
+    aimed = anchor_points((q[:, None, 3:] + tips).reshape(12, 3), offset)
+    sums = np.zeros((6, 2))
+    for s, ends in enumerate((_A, _B)):
+        rods = ends // 2
+        target = np.einsum("jba,jb->ja", rot[rods], aimed[:, s] - q[rods, 3:])
+        diff = np.arctan2(target[:, 1], target[:, 0]) - np.arctan2(local[:, s, 1], local[:, s, 0])
+        np.add.at(sums, rods, np.stack([np.sin(diff), np.cos(diff)], axis=1))
+    phi = np.arctan2(sums[:, 0], sums[:, 1])
+    turned = Rotation.from_matrix(rot) * Rotation.from_rotvec(np.outer(phi, [0.0, 0.0, 1.0]))
+    q[:, :3] = turned.as_rotvec()
+    return q.reshape(-1)
+
+
+class FixedCableAnchors(Effect):
+    """Cables anchored ``anchor_offset`` [m] off the rod axis at points fixed to the rods, which turn
+    about their axes under the cables' torque (module docstring)."""
+
+    name = "fixed_anchors"
+    description = "cable ends fixed on the end caps' rims: the rods turn about their axes under the cables"
+
+    def parameters(self) -> tuple[Parameter, ...]:
+        return (Parameter("fixed_anchor_offset", "m", 0.0, 0.0, 0.1,
+                          "distance of a cable's anchor from its node, fixed to the rod", strict=False),)
+
+    def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
+        offset = float(values["fixed_anchor_offset"])
+        if offset <= 0.0:
+            return
+        local = body_anchors(params["rod_length"], params["rod_space"], offset)
+        build = node_positions(params["rod_length"], params["rod_space"])
+        anchors = anchor_points(build, offset)
+        delta = (np.linalg.norm(anchors[:, 1] - anchors[:, 0], axis=1)
+                 - np.linalg.norm(build[_B] - build[_A], axis=1))
+        tap = TensionTap(setup.actuator)
+        setup.actuator = tap
+        half = np.full(6, 0.5 * float(params["rod_length"]))
+        stiffness, damping = float(params["stiffnessActive"]), float(params["damping"])
+
+        def term(q: np.ndarray, dq: np.ndarray, out: np.ndarray) -> None:
+            if setup.actuator is not tap:
+                raise PhysicsError("fixed_anchors lost its actuator: list it after every effect that replaces "
+                                   "the actuator.")
+            if tap.tension is not None:
+                fixed_anchor_wrenches(q, dq, half, local, tap.tension, stiffness, damping, delta, out)
+
+        setup.wrench_terms.append(term)
+        setup.spin_damping = 0.0
+        setup.orient = lambda q: orient_rods(q, local, offset, 0.5 * float(params["rod_length"]))
