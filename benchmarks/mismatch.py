@@ -63,8 +63,10 @@ def load(source: str, dataset: str, seed: int, noise: float) -> list:
 
 
 def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed",
-            config: MismatchConfig = MismatchConfig()) -> dict:
-    """The stage on one data set; the benchmark's row (JSON-ready)."""
+            config: MismatchConfig | None = None) -> dict:
+    """The stage on one data set (``config``: the stage's, default MismatchConfig()); the benchmark's
+    row (JSON-ready)."""
+    config = config or MismatchConfig()
     data = load(source, dataset, seed, noise)
     start = time.perf_counter()
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
