@@ -1,6 +1,7 @@
 """Physics speed: wall time per simulated second, one E(θ) evaluation, and a batch on 2 workers.
 
-Run: .venv/bin/python benchmarks/physics_speed.py [--repeats 5]
+Run: .venv/bin/python benchmarks/physics_speed.py [--repeats 5] [--components]
+(``--components``: only the per-step cost of each mismatch-stage component against the bare model.)
 Prints medians over repeats measured in this one run (the machine is shared and noisy: compare
 the ratios). Targets (issue 2): <= 60 ms per simulated second at dt = 1 ms on one core; batch of 8
 on 2 workers >= 1.7x faster than serial.
@@ -117,7 +118,48 @@ def main(repeats: int = 5) -> dict:
     return figures
 
 
+def component_costs(repeats: int = 5) -> dict[str, float]:
+    """Wall time per physics step [µs] of the model with each mismatch-stage component (anchors at
+    6 cm), medians over ``repeats`` interleaved runs of 500 steps of a resting robot, and the ratio
+    to the bare model in the same run."""
+    from physics import T6Model
+    from physics.effects import (
+        CableAnchors,
+        CylinderCaps,
+        EndCapRadius,
+        FixedCableAnchors,
+        TensionLimitedActuation,
+        model_space,
+    )
+    variants = {"bare T6": [], "tension_limited_actuator": [TensionLimitedActuation()],
+                "cable_anchors": [CableAnchors()], "fixed_anchors": [FixedCableAnchors()],
+                "end_cap_radius": [EndCapRadius()], "cylinder_caps": [CylinderCaps()]}
+    models = {}
+    for name, effects in variants.items():
+        space = model_space(effects)
+        theta = space.as_dict(None)
+        theta.update({k: 0.06 for k in ("anchor_offset", "fixed_anchor_offset") if k in theta})
+        models[name] = T6Model(space.as_array(theta), effects=effects)
+        models[name].step(None, n=100)
+    times: dict[str, list[float]] = {name: [] for name in models}
+    for _ in range(repeats):
+        for name, model in models.items():
+            start = time.perf_counter()
+            model.step(None, n=500)
+            times[name].append((time.perf_counter() - start) / 500 * 1e6)
+    bare = float(np.median(times["bare T6"]))
+    print("per physics step, resting robot (medians, one run):")
+    for name, t in times.items():
+        print(f"  {name:26s} {np.median(t):6.1f} µs  {np.median(t) / bare:4.2f}x the bare T6")
+    return {name: float(np.median(t)) for name, t in times.items()}
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    main(parser.parse_args().repeats)
+    parser.add_argument("--components", action="store_true", help="only the per-step cost of the mismatch "
+                        "stage's components")
+    args = parser.parse_args()
+    if not args.components:
+        main(args.repeats)
+    component_costs(args.repeats)

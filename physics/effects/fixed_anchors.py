@@ -66,45 +66,42 @@ def _add_wrench(out: np.ndarray, rod: int, arm: np.ndarray, force: np.ndarray) -
 
 
 @njit(cache=True)
-def _point(c: np.ndarray, v: np.ndarray, w: np.ndarray, arm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Position and velocity of the point ``arm`` (3,) off a body's centre c (3,) moving with v, ω (3,)."""
-    return c + arm, v + np.cross(w, arm)
-
-
-@njit(cache=True)
 def fixed_anchor_wrenches(q: np.ndarray, dq: np.ndarray, half: np.ndarray, local: np.ndarray, tension: np.ndarray,
                           stiffness: float, damping: float, delta: np.ndarray, out: np.ndarray) -> None:
     """Add to the generalised forces ``out`` (36,) the anchored cables' wrenches minus the node
     cables' (module docstring). q, dq: FreeJoint positions and velocities (36,); half: half rod
     lengths (6,); local: body-frame anchors (24 x 2 x 3) [m]; tension: node-cable tensions (24,) [N]."""
+    rot = np.empty((6, 3, 3))
+    for r in range(6):
+        rot[r] = _rotation(q[6 * r:6 * r + 3])
+    arms = np.empty((2, 2, 3))          # [end][node, anchor] arm from the rod's centre
+    vel = np.empty((2, 2, 3))           # [end][node, anchor] velocity
     for j in range(_A.shape[0]):
-        ends = (_A[j], _B[j])
-        node_p, node_v, anc_p, anc_v = np.empty((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.empty((2, 3))
         for s in range(2):
-            r = ends[s] // 2
-            rot = _rotation(q[6 * r:6 * r + 3])
-            c, w, v = q[6 * r + 3:6 * r + 6], dq[6 * r:6 * r + 3], dq[6 * r + 3:6 * r + 6]
-            sign = 1.0 if ends[s] % 2 == 1 else -1.0
-            node_p[s], node_v[s] = _point(c, v, w, sign * half[r] * rot[:, 2])
-            anc_p[s], anc_v[s] = _point(c, v, w, rot @ local[j, s])
-        d = node_p[1] - node_p[0]
+            node = _A[j] if s == 0 else _B[j]
+            r = node // 2
+            sign = 1.0 if node % 2 == 1 else -1.0
+            arms[s, 0] = sign * half[r] * rot[r, :, 2]
+            arms[s, 1] = rot[r] @ local[j, s]
+            for k in range(2):
+                vel[s, k] = dq[6 * r + 3:6 * r + 6] + np.cross(dq[6 * r:6 * r + 3], arms[s, k])
+        ra, rb = _A[j] // 2, _B[j] // 2
+        ca, cb = q[6 * ra + 3:6 * ra + 6], q[6 * rb + 3:6 * rb + 6]
+        d = (cb + arms[1, 0]) - (ca + arms[0, 0])
         length = np.sqrt((d * d).sum())
-        u = d / length
-        e = anc_p[1] - anc_p[0]
+        e = (cb + arms[1, 1]) - (ca + arms[0, 1])
         anchored = np.sqrt((e * e).sum())
-        ue = e / anchored
-        rate_n = ((node_v[1] - node_v[0]) * u).sum()
-        rate_a = ((anc_v[1] - anc_v[0]) * ue).sum()
+        u, ue = d / length, e / anchored
         t_node = tension[j]
         t_anchor = 0.0
         if t_node > 0.0:
+            rate_n = ((vel[1, 0] - vel[0, 0]) * u).sum()
+            rate_a = ((vel[1, 1] - vel[0, 1]) * ue).sum()
             t_anchor = max(0.0, t_node + stiffness * ((anchored - length) - delta[j]) + damping * (rate_a - rate_n))
-        ra, rb = ends[0] // 2, ends[1] // 2
-        ca, cb = q[6 * ra + 3:6 * ra + 6], q[6 * rb + 3:6 * rb + 6]
-        _add_wrench(out, ra, node_p[0] - ca, -t_node * u)
-        _add_wrench(out, rb, node_p[1] - cb, t_node * u)
-        _add_wrench(out, ra, anc_p[0] - ca, t_anchor * ue)
-        _add_wrench(out, rb, anc_p[1] - cb, -t_anchor * ue)
+        _add_wrench(out, ra, arms[0, 0], -t_node * u)
+        _add_wrench(out, rb, arms[1, 0], t_node * u)
+        _add_wrench(out, ra, arms[0, 1], t_anchor * ue)
+        _add_wrench(out, rb, arms[1, 1], -t_anchor * ue)
 
 
 def body_anchors(rod_length: float, rod_space: float, offset: float) -> np.ndarray:
