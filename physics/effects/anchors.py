@@ -42,17 +42,27 @@ _B = np.ascontiguousarray(CABLE_NODES[:, 1])
 
 
 @njit(cache=True)
+def _anchor_xyz(nodes: np.ndarray, me: int, other: int, offset: float) -> tuple[float, float, float]:
+    """Anchor (x, y, z) of the cable end at node ``me`` toward node ``other``: ``offset`` off the axis."""
+    mate = me ^ 1
+    ax, ay, az = nodes[mate, 0] - nodes[me, 0], nodes[mate, 1] - nodes[me, 1], nodes[mate, 2] - nodes[me, 2]
+    n = np.sqrt(ax * ax + ay * ay + az * az)
+    ax, ay, az = ax / n, ay / n, az / n
+    dx, dy, dz = nodes[other, 0] - nodes[me, 0], nodes[other, 1] - nodes[me, 1], nodes[other, 2] - nodes[me, 2]
+    dot = dx * ax + dy * ay + dz * az
+    px, py, pz = dx - dot * ax, dy - dot * ay, dz - dot * az
+    norm = np.sqrt(px * px + py * py + pz * pz)
+    if norm < 1e-12:
+        return nodes[me, 0], nodes[me, 1], nodes[me, 2]
+    s = offset / norm
+    return nodes[me, 0] + s * px, nodes[me, 1] + s * py, nodes[me, 2] + s * pz
+
+
+@njit(cache=True)
 def _anchor(nodes: np.ndarray, me: int, other: int, offset: float) -> np.ndarray:
     """Anchor (3,) of the cable end at node ``me`` toward node ``other``: ``offset`` off the axis."""
-    mate = me ^ 1
-    axis = nodes[mate] - nodes[me]
-    axis = axis / np.sqrt((axis * axis).sum())
-    d = nodes[other] - nodes[me]
-    perp = d - (d * axis).sum() * axis
-    norm = np.sqrt((perp * perp).sum())
-    if norm < 1e-12:
-        return nodes[me].copy()
-    return nodes[me] + offset * perp / norm
+    x, y, z = _anchor_xyz(nodes, me, other, offset)
+    return np.array([x, y, z])
 
 
 def anchor_points(nodes: np.ndarray, offset: float) -> np.ndarray:
@@ -65,19 +75,25 @@ def anchor_points(nodes: np.ndarray, offset: float) -> np.ndarray:
 
 
 @njit(cache=True)
-def _at_anchor(nodes: np.ndarray, node: int, point: np.ndarray, force: np.ndarray, out: np.ndarray) -> None:
-    """Add the force (3,) acting at ``point`` on the rod of ``node`` to its two nodes: same net force,
-    same torque perpendicular to the rod about its centre."""
+def _at_anchor(nodes: np.ndarray, node: int, p: tuple[float, float, float], f: tuple[float, float, float],
+               out: np.ndarray) -> None:
+    """Add the force f acting at point p on the rod of ``node`` to its two nodes: same net force,
+    same torque perpendicular to the rod about its centre (f1 − f0 = g with h a × g = that torque)."""
     lo = node - node % 2
-    c = 0.5 * (nodes[lo] + nodes[lo + 1])
-    span = nodes[lo + 1] - nodes[lo]
-    h = 0.5 * np.sqrt((span * span).sum())
-    axis = span / (2.0 * h)
-    torque = np.cross(point - c, force)
-    torque = torque - (torque * axis).sum() * axis
-    g = np.cross(torque, axis) / h           # f1 - f0: h axis x g = torque
-    out[lo] += 0.5 * (force - g)
-    out[lo + 1] += 0.5 * (force + g)
+    sx, sy, sz = nodes[lo + 1, 0] - nodes[lo, 0], nodes[lo + 1, 1] - nodes[lo, 1], nodes[lo + 1, 2] - nodes[lo, 2]
+    span = np.sqrt(sx * sx + sy * sy + sz * sz)
+    h = 0.5 * span
+    ax, ay, az = sx / span, sy / span, sz / span
+    rx = p[0] - 0.5 * (nodes[lo, 0] + nodes[lo + 1, 0])
+    ry = p[1] - 0.5 * (nodes[lo, 1] + nodes[lo + 1, 1])
+    rz = p[2] - 0.5 * (nodes[lo, 2] + nodes[lo + 1, 2])
+    tx, ty, tz = ry * f[2] - rz * f[1], rz * f[0] - rx * f[2], rx * f[1] - ry * f[0]
+    dot = tx * ax + ty * ay + tz * az
+    tx, ty, tz = tx - dot * ax, ty - dot * ay, tz - dot * az
+    g = ((ty * az - tz * ay) / h, (tz * ax - tx * az) / h, (tx * ay - ty * ax) / h)
+    for k in range(3):
+        out[lo, k] += 0.5 * (f[k] - g[k])
+        out[lo + 1, k] += 0.5 * (f[k] + g[k])
 
 
 @njit(cache=True)
@@ -87,21 +103,24 @@ def anchor_forces(nodes: np.ndarray, tension: np.ndarray, offset: float, stiffne
     docstring), from node positions (12 x 3) and node-cable tensions (24,) [N]."""
     for j in range(_A.shape[0]):
         a, b = _A[j], _B[j]
-        d = nodes[b] - nodes[a]
-        length = np.sqrt((d * d).sum())
-        u = d / length
-        pa, pb = _anchor(nodes, a, b, offset), _anchor(nodes, b, a, offset)
-        e = pb - pa
-        anchored = np.sqrt((e * e).sum())
+        dx, dy, dz = nodes[b, 0] - nodes[a, 0], nodes[b, 1] - nodes[a, 1], nodes[b, 2] - nodes[a, 2]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        pa, pb = _anchor_xyz(nodes, a, b, offset), _anchor_xyz(nodes, b, a, offset)
+        ex, ey, ez = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+        anchored = np.sqrt(ex * ex + ey * ey + ez * ez)
         t_node = tension[j]
         t_anchor = 0.0
         if t_node > 0.0:
             t_anchor = max(0.0, t_node + stiffness * ((anchored - length) - delta[j]))
-        out[a] -= t_node * u
-        out[b] += t_node * u
-        f = t_anchor * e / anchored
-        _at_anchor(nodes, a, pa, f, out)
-        _at_anchor(nodes, b, pb, -f, out)
+        out[a, 0] -= t_node * dx / length
+        out[a, 1] -= t_node * dy / length
+        out[a, 2] -= t_node * dz / length
+        out[b, 0] += t_node * dx / length
+        out[b, 1] += t_node * dy / length
+        out[b, 2] += t_node * dz / length
+        s = t_anchor / anchored
+        _at_anchor(nodes, a, pa, (s * ex, s * ey, s * ez), out)
+        _at_anchor(nodes, b, pb, (-s * ex, -s * ey, -s * ez), out)
 
 
 class TensionTap:
