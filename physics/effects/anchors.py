@@ -35,7 +35,7 @@ from physics.errors import PhysicsError
 from physics.geometry import CABLE_NODES, node_positions
 from physics.parameters import Parameter
 
-__all__ = ["CableAnchors", "TensionTap", "anchor_points", "anchor_forces"]
+__all__ = ["CableAnchors", "TensionTap", "anchor_points", "anchor_forces", "rest_shift"]
 
 _A = np.ascontiguousarray(CABLE_NODES[:, 0])
 _B = np.ascontiguousarray(CABLE_NODES[:, 1])
@@ -63,6 +63,14 @@ def _anchor(nodes: np.ndarray, me: int, other: int, offset: float) -> np.ndarray
     """Anchor (3,) of the cable end at node ``me`` toward node ``other``: ``offset`` off the axis."""
     x, y, z = _anchor_xyz(nodes, me, other, offset)
     return np.array([x, y, z])
+
+
+def rest_shift(rod_length: float, rod_space: float, offset: float) -> np.ndarray:
+    """δ (24,) [m]: anchor-to-anchor minus node-to-node build length of each cable, the shift of its
+    rest length that keeps the pretension of a cable assembled anchor to anchor."""
+    build = node_positions(rod_length, rod_space)
+    anchors = anchor_points(build, offset)
+    return np.linalg.norm(anchors[:, 1] - anchors[:, 0], axis=1) - np.linalg.norm(build[_B] - build[_A], axis=1)
 
 
 def anchor_points(nodes: np.ndarray, offset: float) -> np.ndarray:
@@ -156,10 +164,7 @@ class CableAnchors(Effect):
         offset = float(values["anchor_offset"])
         if offset <= 0.0:
             return
-        build = node_positions(params["rod_length"], params["rod_space"])
-        anchors = anchor_points(build, offset)
-        delta = (np.linalg.norm(anchors[:, 1] - anchors[:, 0], axis=1)
-                 - np.linalg.norm(build[_B] - build[_A], axis=1))
+        delta = rest_shift(params["rod_length"], params["rod_space"], offset)
         tap = TensionTap(setup.actuator)
         setup.actuator = tap
         stiffness = float(params["stiffnessActive"])

@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial.transform import Rotation
 
-from physics.effects.anchors import TensionTap, anchor_points
+from physics.effects.anchors import TensionTap, anchor_points, rest_shift
 from physics.effects.base import Effect, ModelSetup
 from physics.errors import PhysicsError
 from physics.geometry import CABLE_NODES, node_positions, rod_poses_from_nodes
@@ -154,10 +154,7 @@ class FixedCableAnchors(Effect):
         if offset <= 0.0:
             return
         local = body_anchors(params["rod_length"], params["rod_space"], offset)
-        build = node_positions(params["rod_length"], params["rod_space"])
-        anchors = anchor_points(build, offset)
-        delta = (np.linalg.norm(anchors[:, 1] - anchors[:, 0], axis=1)
-                 - np.linalg.norm(build[_B] - build[_A], axis=1))
+        delta = rest_shift(params["rod_length"], params["rod_space"], offset)
         tap = TensionTap(setup.actuator)
         setup.actuator = tap
         half = np.full(6, 0.5 * float(params["rod_length"]))
