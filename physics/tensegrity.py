@@ -27,7 +27,8 @@ from ``drop_height`` and settled with the motors holding their build rest length
 Effects (physics.effects) extend the model: ``T6Model(θ, effects=[...])`` takes θ in
 ``model_space(effects)`` (the 15 T6 parameters, then the effects'), and each effect edits the
 :class:`~physics.effects.ModelSetup` the world is built and stepped from (gravity vector, cap
-radius, point masses, cable law, actuator, command delay, extra node forces, observation offset).
+radius and shape, point masses, cable law, actuator, command delay, extra node forces and rod
+wrenches, the rods' spin damping and orientation, observation offset).
 """
 from __future__ import annotations
 
