@@ -34,12 +34,10 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 
 import dartpy as dart
 import numpy as np
 
-from physics.actuators import MotorGains
 from physics.cables import add_node_forces, cable_energy, cable_wrenches, node_kinematics
 from physics.effects.base import Effect, ModelSetup, model_space, split_theta
 from physics.errors import ParameterError, PhysicsError
@@ -53,63 +51,13 @@ from physics.geometry import (
     rotation_between,
     rotation_onto_face,
 )
+from physics.model_options import ModelOptions, RobotState
 from physics.parameters import ParameterSpace
 
 __all__ = ["ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes"]
 
 _SPACE = ParameterSpace.t6()
 _FACES = closed_faces()
-
-
-@dataclass(frozen=True)
-class ModelOptions:
-    """Options of the T6 model that are not identified parameters.
-
-    dt: physics step [s]; gravity [m/s^2] (0 switches it off); ground: whether the ground exists;
-    friction: Coulomb coefficient rod-ground; spin_damping: axial damper of each rod [N m s]
-    (see physics.cables; applied semi-implicitly, c / (1 + c dt / I_axial), so it is stable for
-    any value; 2.0 stops a spin within ~5 ms, which keeps the unobservable spin small);
-    drop_height: gap between the lowest cap and the ground at build [m];
-    face: which of the 8 closed faces faces the ground at build (0..7); max_speed: a node faster
-    than this [m/s] means the simulation diverged; motor: gains of the motor drivers.
-    """
-
-    dt: float = 1e-3
-    gravity: float = 9.81
-    ground: bool = True
-    friction: float = 0.5
-    spin_damping: float = 2.0
-    drop_height: float = 0.02
-    face: int = 0
-    max_speed: float = 30.0
-    motor: MotorGains = field(default_factory=MotorGains)
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.dt) and 0 < self.dt <= 0.01):
-            raise ParameterError(f"ModelOptions.dt must be in (0, 0.01] s, got {self.dt!r}; the default is 0.001 s.")
-        for name in ("gravity", "friction", "spin_damping", "drop_height"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise ParameterError(f"ModelOptions.{name} must be a finite number >= 0, got {value!r}.")
-        if not (np.isfinite(self.max_speed) and self.max_speed > 0):
-            raise ParameterError(f"ModelOptions.max_speed must be > 0 m/s, got {self.max_speed!r}.")
-        if self.face not in range(len(_FACES)):
-            raise ParameterError(f"ModelOptions.face must be an integer in 0..{len(_FACES) - 1}, got {self.face!r}.")
-        if not isinstance(self.motor, MotorGains):
-            raise ParameterError(f"ModelOptions.motor must be a MotorGains, got {type(self.motor).__name__}.")
-
-
-@dataclass(frozen=True)
-class RobotState:
-    """Full simulator state: FreeJoint positions/velocities (36 each), true rest lengths and spool
-    speeds (24 each), commanded true targets (24), and time [s]."""
-
-    positions: np.ndarray
-    velocities: np.ndarray
-    rest_length: np.ndarray
-    motor_speed: np.ndarray
-    target: np.ndarray
-    time: float
 
 
 def build_rest_lengths(params: Mapping[str, float]) -> np.ndarray:
