@@ -57,12 +57,51 @@ def _rotation(w: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _add_wrench(out: np.ndarray, rod: int, arm: np.ndarray, force: np.ndarray) -> None:
-    """Add a force (3,) [N] applied at ``arm`` (3,) from the rod's centre to its generalised forces."""
-    out[6 * rod] += arm[1] * force[2] - arm[2] * force[1]
-    out[6 * rod + 1] += arm[2] * force[0] - arm[0] * force[2]
-    out[6 * rod + 2] += arm[0] * force[1] - arm[1] * force[0]
-    out[6 * rod + 3:6 * rod + 6] += force
+def _add_wrench(out: np.ndarray, rod: int, arm: np.ndarray, fx: float, fy: float, fz: float) -> None:
+    """Add a force (fx, fy, fz) [N] applied at ``arm`` (3,) from the rod's centre to its generalised forces."""
+    out[6 * rod] += arm[1] * fz - arm[2] * fy
+    out[6 * rod + 1] += arm[2] * fx - arm[0] * fz
+    out[6 * rod + 2] += arm[0] * fy - arm[1] * fx
+    out[6 * rod + 3] += fx
+    out[6 * rod + 4] += fy
+    out[6 * rod + 5] += fz
+
+
+@njit(cache=True)
+def _ends(q: np.ndarray, dq: np.ndarray, half: np.ndarray, local: np.ndarray, rot: np.ndarray, j: int,
+          arms: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:
+    """Arms from the rod centres, positions and velocities (each [end a/b][node, anchor] x 3) of cable j's ends."""
+    for s in range(2):
+        node = _A[j] if s == 0 else _B[j]
+        r = node // 2
+        sign = 1.0 if node % 2 == 1 else -1.0
+        for k in range(3):
+            arms[s, 0, k] = sign * half[r] * rot[r, k, 2]
+            arms[s, 1, k] = (rot[r, k, 0] * local[j, s, 0] + rot[r, k, 1] * local[j, s, 1]
+                             + rot[r, k, 2] * local[j, s, 2])
+        wx, wy, wz = dq[6 * r], dq[6 * r + 1], dq[6 * r + 2]
+        for m in range(2):
+            ax, ay, az = arms[s, m, 0], arms[s, m, 1], arms[s, m, 2]
+            vel[s, m, 0] = dq[6 * r + 3] + wy * az - wz * ay
+            vel[s, m, 1] = dq[6 * r + 4] + wz * ax - wx * az
+            vel[s, m, 2] = dq[6 * r + 5] + wx * ay - wy * ax
+            for k in range(3):
+                pos[s, m, k] = q[6 * r + 3 + k] + arms[s, m, k]
+
+
+@njit(cache=True)
+def _along(x: np.ndarray, m: int) -> tuple[float, float, float, float]:
+    """Unit vector (3 floats) from end a to end b of points ``x[:, m]`` and their distance."""
+    dx, dy, dz = x[1, m, 0] - x[0, m, 0], x[1, m, 1] - x[0, m, 1], x[1, m, 2] - x[0, m, 2]
+    n = np.sqrt(dx * dx + dy * dy + dz * dz)
+    return dx / n, dy / n, dz / n, n
+
+
+@njit(cache=True)
+def _rate(vel: np.ndarray, m: int, ux: float, uy: float, uz: float) -> float:
+    """Rate [m/s] at which points ``m`` of the two ends move apart along (ux, uy, uz)."""
+    return ((vel[1, m, 0] - vel[0, m, 0]) * ux + (vel[1, m, 1] - vel[0, m, 1]) * uy
+            + (vel[1, m, 2] - vel[0, m, 2]) * uz)
 
 
 @njit(cache=True)
@@ -74,34 +113,22 @@ def fixed_anchor_wrenches(q: np.ndarray, dq: np.ndarray, half: np.ndarray, local
     rot = np.empty((6, 3, 3))
     for r in range(6):
         rot[r] = _rotation(q[6 * r:6 * r + 3])
-    arms = np.empty((2, 2, 3))          # [end][node, anchor] arm from the rod's centre
-    vel = np.empty((2, 2, 3))           # [end][node, anchor] velocity
+    arms, pos, vel = np.empty((2, 2, 3)), np.empty((2, 2, 3)), np.empty((2, 2, 3))
     for j in range(_A.shape[0]):
-        for s in range(2):
-            node = _A[j] if s == 0 else _B[j]
-            r = node // 2
-            sign = 1.0 if node % 2 == 1 else -1.0
-            arms[s, 0] = sign * half[r] * rot[r, :, 2]
-            arms[s, 1] = rot[r] @ local[j, s]
-            for k in range(2):
-                vel[s, k] = dq[6 * r + 3:6 * r + 6] + np.cross(dq[6 * r:6 * r + 3], arms[s, k])
-        ra, rb = _A[j] // 2, _B[j] // 2
-        ca, cb = q[6 * ra + 3:6 * ra + 6], q[6 * rb + 3:6 * rb + 6]
-        d = (cb + arms[1, 0]) - (ca + arms[0, 0])
-        length = np.sqrt((d * d).sum())
-        e = (cb + arms[1, 1]) - (ca + arms[0, 1])
-        anchored = np.sqrt((e * e).sum())
-        u, ue = d / length, e / anchored
+        _ends(q, dq, half, local, rot, j, arms, pos, vel)
+        ux, uy, uz, length = _along(pos, 0)
+        ex, ey, ez, anchored = _along(pos, 1)
         t_node = tension[j]
         t_anchor = 0.0
         if t_node > 0.0:
-            rate_n = ((vel[1, 0] - vel[0, 0]) * u).sum()
-            rate_a = ((vel[1, 1] - vel[0, 1]) * ue).sum()
+            rate_n = _rate(vel, 0, ux, uy, uz)
+            rate_a = _rate(vel, 1, ex, ey, ez)
             t_anchor = max(0.0, t_node + stiffness * ((anchored - length) - delta[j]) + damping * (rate_a - rate_n))
-        _add_wrench(out, ra, arms[0, 0], -t_node * u)
-        _add_wrench(out, rb, arms[1, 0], t_node * u)
-        _add_wrench(out, ra, arms[0, 1], t_anchor * ue)
-        _add_wrench(out, rb, arms[1, 1], -t_anchor * ue)
+        ra, rb = _A[j] // 2, _B[j] // 2
+        _add_wrench(out, ra, arms[0, 0], -t_node * ux, -t_node * uy, -t_node * uz)
+        _add_wrench(out, rb, arms[1, 0], t_node * ux, t_node * uy, t_node * uz)
+        _add_wrench(out, ra, arms[0, 1], t_anchor * ex, t_anchor * ey, t_anchor * ez)
+        _add_wrench(out, rb, arms[1, 1], -t_anchor * ex, -t_anchor * ey, -t_anchor * ez)
 
 
 def body_anchors(rod_length: float, rod_space: float, offset: float) -> np.ndarray:
