@@ -1,4 +1,4 @@
-"""Cable anchors fixed to the rods: each cable end sits on the end cap's rim, ``anchor_offset`` [m]
+"""Cable anchors fixed to the rods: each cable end sits on the end cap's rim, ``fixed_anchor_offset`` [m]
 off the axis, at a point of the rod's body frame (as on SUPERball, and in engines that attach
 cables to rigid bodies), so a rod turns about its own axis under the cables' torque.
 
