@@ -24,6 +24,8 @@ targets (both ratios at most 0.5).
     .venv/bin/python benchmarks/mismatch.py --seeds 3 --first-seed 2 --rounds 3 \
         --components tension_limited_actuator cable_anchors fixed_anchors end_cap_radius cylinder_caps \
         --out benchmarks/results/mismatch-components.jsonl
+    .venv/bin/python benchmarks/mismatch.py --flops-version 2 --seeds 3 --first-seed 0 \
+        --out benchmarks/results/mismatch-flops2.jsonl                  # flops the stage never saw
 
 ``--source own`` runs the stage on the project's own engine (the scenarios of benchmarks/effects.py,
 1.5 s flops), where it should keep nothing.
@@ -51,30 +53,31 @@ from physics.model_file import effects_by_name
 LABELS = ("flop_0", "flop_1", "heldout_0")
 
 
-def load(source: str, dataset: str, seed: int, noise: float) -> list:
-    """The two fit flops and the held-out flop: of a testbed data set, or (``own``) of a scenario of
-    benchmarks/effects.py simulated by the project's own engine (1.5 s flops)."""
+def load(source: str, dataset: str, seed: int, noise: float, flops_version: int = 1) -> list:
+    """The two fit flops and the held-out flop: of a testbed data set (its flops' version, testbed.datasets),
+    or (``own``) of a scenario of benchmarks/effects.py simulated by the project's own engine (1.5 s flops)."""
     if source == "own":
         from effects import make_data
         return make_data(dataset, seed, noise=noise)[0]
     from testbed.datasets import cached_dataset
-    files = cached_dataset(dataset, seed, noise=noise)
+    files = cached_dataset(dataset, seed, noise=noise, version=flops_version)
     return [load_trajectory(files[label]) for label in LABELS]
 
 
 def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed",
-            config: MismatchConfig | None = None) -> dict:
+            config: MismatchConfig | None = None, flops_version: int = 1) -> dict:
     """The stage on one data set (``config``: the stage's, default MismatchConfig()); the benchmark's
     row (JSON-ready)."""
     config = config or MismatchConfig()
-    data = load(source, dataset, seed, noise)
+    data = load(source, dataset, seed, noise, flops_version)
     start = time.perf_counter()
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
         report = absorb_mismatch(objective, fit, [2], config=config, progress=False)
         nominal = held_scores(objective, objective.space.nominal, [2], config.drift_time)
     row = {"source": source, "components": [c.name for c in config.components], "rounds": config.rounds,
-           "dataset": dataset, "seed": seed, "noise": noise, "kept": [e.name for e in report.effects],
+            "flops_version": flops_version, "dataset": dataset, "seed": seed, "noise": noise,
+            "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
             "trials": [{"round": t.round, "name": t.name, "gain": t.gain, "values": t.values} for t in report.trials],
             "nominal": nominal.totals(), "before": report.before.totals(), "after": report.after.totals(),
@@ -89,7 +92,7 @@ def noise_floor(row: dict) -> float:
     """E1 [m²] that observation noise alone leaves: the augmented model at the stage's θ replays the
     held-out flop's controls, its nodes get the data set's noise (seed 0), and the one-step error
     of that recording at the same θ is taken (what the stage could reach if it were exact)."""
-    held = load(row.get("source", "testbed"), row["dataset"], row["seed"], row["noise"])[2]
+    held = load(row.get("source", "testbed"), row["dataset"], row["seed"], row["noise"], row.get("flops_version", 1))[2]
     effects = [EFFECT_TYPES[name]() for name in row["kept"]]
     t = np.asarray(held["time"].values, float)
     replay = ReplayController(t, np.asarray(held["controls"].transpose("time", "cable").values, float))
@@ -144,6 +147,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--components", nargs="+", default=None, metavar="EFFECT",
                     help="the stage's component changes, in order (default: MismatchConfig's; e.g. "
                          "tension_limited_actuator cable_anchors fixed_anchors end_cap_radius cylinder_caps)")
+    ap.add_argument("--flops-version", type=int, default=1, help="of the testbed's flops (testbed.datasets: "
+                    "2 draws each flop's actuation from the seed)")
     ap.add_argument("--rounds", type=int, default=None, help="most components kept (default: MismatchConfig's)")
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
@@ -159,7 +164,8 @@ def main(argv: list[str] | None = None) -> int:
             r.setdefault("floor", noise_floor(r))
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
     args.dataset = args.dataset or ("nominal" if args.source == "testbed" else "none")
-    key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"]): r for r in saved}
+    key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1)): r
+           for r in saved}
     config = MismatchConfig()
     if args.components:
         config = replace(config, components=tuple(effects_by_name(args.components)))
@@ -167,9 +173,9 @@ def main(argv: list[str] | None = None) -> int:
         config = replace(config, rounds=args.rounds)
     rows = []
     for seed in seeds:
-        row = key.get((args.source, args.dataset, seed, args.noise))
+        row = key.get((args.source, args.dataset, seed, args.noise, args.flops_version))
         if row is None:
-            row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config)
+            row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config, args.flops_version)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(f"{args.dataset} seed {seed}: kept {row['kept']}, {row['seconds']:.0f} s", flush=True)

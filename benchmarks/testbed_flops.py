@@ -9,6 +9,7 @@ seed, in another order, and the seeds differ only in their noise and in which fl
 
     .venv/bin/python benchmarks/testbed_flops.py                      # nominal, seeds 0-4
     .venv/bin/python benchmarks/testbed_flops.py --dataset drag --seeds 2
+    .venv/bin/python benchmarks/testbed_flops.py --flops-version 2 --seeds 3   # actuation drawn per seed
 """
 from __future__ import annotations
 
@@ -42,15 +43,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--noise", type=float, default=0.0002)
+    ap.add_argument("--flops-version", type=int, default=1, help="of the testbed's flops (testbed.datasets)")
     args = ap.parse_args(argv)
     from testbed.datasets import cached_dataset
     commands = {}
     for seed in range(args.first_seed, args.first_seed + args.seeds):
-        files = cached_dataset(args.dataset, seed, noise=args.noise)
+        files = cached_dataset(args.dataset, seed, noise=args.noise, version=args.flops_version)
         for label in LABELS:
             commands[(seed, label)] = np.asarray(load_trajectory(files[label])["controls"].values, float)
     found = groups(commands)
-    print(f"{args.dataset}: {len(commands)} flops, {len(found)} distinct command sequences")
+    print(f"{args.dataset} (flops version {args.flops_version}): {len(commands)} flops, "
+          f"{len(found)} distinct command sequences")
     for group in found:
         print("  " + ", ".join(f"seed {s} {label}" for s, label in group))
     return 0

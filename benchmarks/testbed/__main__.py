@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from testbed.datasets import DATASETS, make_dataset, robot_for
+from testbed.datasets import DATASETS, FLOP_VERSIONS, make_dataset, robot_for
 from testbed.record import Observation
 
 __all__ = ["main", "default_folder"]
@@ -32,6 +32,8 @@ def main(argv: "list[str] | None" = None) -> int:
     make.add_argument("--noise", type=float, default=1e-3, help="motion-capture noise [m] (default 0.001)")
     make.add_argument("--missing", type=float, default=0.0, help="fraction of samples lost (NaN)")
     make.add_argument("--duration", type=float, default=3.0, help="seconds per flop")
+    make.add_argument("--flops-version", type=int, choices=FLOP_VERSIONS, default=1,
+                      help="1: the same actuation for every seed; 2: actuation drawn from the seed")
     args = parser.parse_args(argv)
     if args.command == "list":
         for name in sorted(DATASETS):
@@ -40,7 +42,7 @@ def main(argv: "list[str] | None" = None) -> int:
         return 0
     out = args.out or default_folder(args.name, args.seed)
     paths = make_dataset(args.name, args.seed, out, duration=args.duration,
-                         obs=Observation(noise=args.noise, missing=args.missing))
+                         obs=Observation(noise=args.noise, missing=args.missing), version=args.flops_version)
     print("\n".join(str(p) for p in paths))
     return 0
 

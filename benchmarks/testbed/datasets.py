@@ -2,9 +2,18 @@
 
 A data set is one robot (θ and effects) settled for 3 s on a face; from that same rest state it
 makes three flops toward headings 120° apart (rotated by an angle drawn from the seed) and one
-held-out flop with another actuation (5 cables per side, ±25 %, 0.3-1.1 s, heading between two
-of the others). Files: ``flop_0.nc``, ``flop_1.nc``, ``flop_2.nc``, ``heldout_0.nc`` and
-``truth.json`` (θ, effects, seed). Same name and seed, same files.
+held-out flop with another actuation, heading between two of the others. Files: ``flop_0.nc``,
+``flop_1.nc``, ``flop_2.nc``, ``heldout_0.nc`` and ``truth.json`` (θ, effects, seed, flops'
+version). Same name, seed and version, same files.
+
+The flops come in two versions (``FLOP_VERSIONS``):
+
+- 1: every flop shortens and lengthens 4 cables by 30 % from 0.2 to 1.2 s, the held-out flop 5
+  cables by 25 % from 0.3 to 1.1 s. A heading picks one of the three edges of the base triangle,
+  so on a robot that does not change with the seed, the seeds replay the same flops
+  (benchmarks/testbed_flops.py counts them);
+- 2: each flop's actuation is drawn from the seed: change 20-35 % (held-out: 15-30 %), 3-5 cables
+  per side (held-out: 4-6), start 0.15-0.35 s, held for 0.7-1.1 s.
 """
 from __future__ import annotations
 
@@ -21,9 +30,11 @@ from testbed.params import NOMINAL, draw_theta
 from testbed.record import Observation, record_flop, to_dataset
 from testbed.robot import TestbedRobot
 
-__all__ = ["DATASETS", "Robot", "robot_for", "make_dataset", "cached_dataset", "SETTLE_S"]
+__all__ = ["DATASETS", "FLOP_VERSIONS", "Robot", "robot_for", "flops_for", "make_dataset", "cached_dataset",
+           "SETTLE_S"]
 
 SETTLE_S = 3.0
+FLOP_VERSIONS = (1, 2)
 
 
 @dataclass(frozen=True)
@@ -71,18 +82,33 @@ def robot_for(name: str, seed: int) -> tuple[Robot, np.random.Generator]:
     return Robot(theta, effects(rng)), rng
 
 
-def flops_for(rng: np.random.Generator) -> dict[str, Flop]:
-    """The three flops and the held-out flop of a data set (headings rotated by the seed)."""
+def _drawn(rng: np.random.Generator, heading: float, change: tuple[float, float], cables: tuple[int, int]) -> Flop:
+    """A flop toward ``heading`` whose change, cables per side, start and hold time are drawn (version 2)."""
+    start = float(rng.uniform(0.15, 0.35))
+    return Flop(heading=heading, change=float(rng.uniform(*change)),
+                n_cables=int(rng.integers(cables[0], cables[1] + 1)), start=start,
+                stop=start + float(rng.uniform(0.7, 1.1)))
+
+
+def flops_for(rng: np.random.Generator, version: int = 1) -> dict[str, Flop]:
+    """The three flops and the held-out flop of a data set (headings rotated by the seed; the
+    actuation fixed in version 1, drawn in version 2: module docstring)."""
+    if version not in FLOP_VERSIONS:
+        raise ValueError(f"unknown flops version {version!r}; choose from {FLOP_VERSIONS}.")
     offset = float(rng.uniform(0, 2 * np.pi))
-    flops = {f"flop_{k}": Flop(heading=offset + 2 * np.pi * k / 3) for k in range(3)}
-    flops["heldout_0"] = Flop(heading=offset + np.pi / 3, change=0.25, n_cables=5, start=0.3, stop=1.1)
+    if version == 1:
+        flops = {f"flop_{k}": Flop(heading=offset + 2 * np.pi * k / 3) for k in range(3)}
+        flops["heldout_0"] = Flop(heading=offset + np.pi / 3, change=0.25, n_cables=5, start=0.3, stop=1.1)
+        return flops
+    flops = {f"flop_{k}": _drawn(rng, offset + 2 * np.pi * k / 3, (0.2, 0.35), (3, 5)) for k in range(3)}
+    flops["heldout_0"] = _drawn(rng, offset + np.pi / 3, (0.15, 0.3), (4, 6))
     return flops
 
 
 def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = Observation(),
-                 duration: float = 3.0, effects: Effects | None = None) -> list[Path]:
+                 duration: float = 3.0, effects: Effects | None = None, version: int = 1) -> list[Path]:
     """Write data set ``name`` for ``seed`` into folder ``out``; returns the trajectory files.
-    ``effects`` replaces the data set's own (for combinations)."""
+    ``effects`` replaces the data set's own (for combinations); ``version``: of the flops."""
     robot_def, rng = robot_for(name, seed)
     if effects is not None:
         robot_def = replace(robot_def, effects=effects)
@@ -94,14 +120,15 @@ def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = 
             robot.step(robot.rest)
         settled = robot.snapshot()
         paths = []
-        for k, (label, flop) in enumerate(flops_for(rng).items()):
+        for k, (label, flop) in enumerate(flops_for(rng, version).items()):
             robot.restore(settled)
             rec = record_flop(robot, flop, duration=duration, sample_rate=obs.sample_rate)
             ds = to_dataset(rec, robot, obs, np.random.default_rng([seed, k, 7]),
                             attrs={"testbed_dataset": name, "testbed_seed": seed, "testbed_flop": repr(flop)})
             paths.append(out / f"{label}.nc")
             ds.to_netcdf(paths[-1])
-        truth = {"dataset": name, "seed": seed, "theta": robot.theta, "effects": robot.effects.active()}
+        truth = {"dataset": name, "seed": seed, "theta": robot.theta, "effects": robot.effects.active(),
+                 "flops_version": version}
         (out / "truth.json").write_text(json.dumps(truth, indent=1))
         return paths
     finally:
@@ -109,11 +136,12 @@ def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = 
 
 
 def cached_dataset(name: str, seed: int, *, noise: float = 1e-3, missing: float = 0.0,
-                   root: "str | Path" = Path(".cache") / "testbed") -> dict[str, Path]:
+                   root: "str | Path" = Path(".cache") / "testbed", version: int = 1) -> dict[str, Path]:
     """The files of data set ``name`` at ``seed`` (label -> path), made on first use under ``root``
-    (a folder per name, seed and observation, ignored by git)."""
-    folder = Path(root) / (f"{name}-s{seed}-n{noise:g}" + (f"-m{missing:g}" if missing else ""))
+    (a folder per name, seed, observation and flops' version, ignored by git)."""
+    folder = Path(root) / (f"{name}-s{seed}-n{noise:g}" + (f"-m{missing:g}" if missing else "")
+                           + (f"-v{version}" if version != 1 else ""))
     labels = ("flop_0", "flop_1", "flop_2", "heldout_0")
     if not all((folder / f"{label}.nc").exists() for label in labels):
-        make_dataset(name, seed, folder, obs=Observation(noise=noise, missing=missing))
+        make_dataset(name, seed, folder, obs=Observation(noise=noise, missing=missing), version=version)
     return {label: folder / f"{label}.nc" for label in labels}

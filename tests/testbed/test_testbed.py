@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from physics import load_trajectory
 from testbed.controller import Flop
-from testbed.datasets import make_dataset
+from testbed.datasets import flops_for, make_dataset, robot_for
 from testbed.effects import Effects
 from testbed.params import NOMINAL, closed_faces
 from testbed.record import record_flop
@@ -100,7 +100,6 @@ def test_flops_move_the_centre_of_mass_and_pass_the_loader(nominal_files):
 
 def _short_run(name: str, seed: int) -> np.ndarray:
     """Observed nodes of 0.3 s of the data set's first flop (short planning trials, noise on)."""
-    from testbed.datasets import flops_for, robot_for
     from testbed.record import Observation, to_dataset
     spec, rng = robot_for(name, seed)
     robot = TestbedRobot(spec.theta, spec.effects)
@@ -199,3 +198,17 @@ def test_the_ground_plane_of_testbed_flops_on_a_3_degree_slope_and_on_flat_groun
                 assert abs(plane.height - resting) < 0.003, (label, plane.height, resting)
             else:
                 assert plane.tilt_deg < 0.3, (label, plane)
+
+
+def test_flops_of_version_2_are_drawn_per_seed_and_version_1_stays_fixed():
+    """Version 1 keeps its fixed actuation (every recorded figure was measured on it); version 2
+    draws each flop's actuation from the seed, so seeds of one robot no longer replay the same flops."""
+    fixed = flops_for(robot_for("nominal", 0)[1], 1)
+    assert {(f.change, f.n_cables, f.start, f.stop) for k, f in fixed.items() if k != "heldout_0"} == {(0.3, 4, 0.2, 1.2)}
+    assert (fixed["heldout_0"].change, fixed["heldout_0"].n_cables) == (0.25, 5)
+    drawn = [(f.change, f.n_cables, f.start, f.stop) for seed in range(10)
+             for f in flops_for(robot_for("nominal", seed)[1], 2).values()]
+    assert len(set(drawn)) == len(drawn) == 40
+    assert flops_for(robot_for("nominal", 3)[1], 2) == flops_for(robot_for("nominal", 3)[1], 2)
+    with pytest.raises(ValueError, match="version"):
+        flops_for(robot_for("nominal", 0)[1], 3)
