@@ -34,6 +34,8 @@ models it (TESTBED_TRUTH) is; rows go to benchmarks/results/effects-testbed.json
 
     .venv/bin/python benchmarks/effects.py --source testbed --seeds 2
     .venv/bin/python benchmarks/effects.py --source testbed --mismatch --seeds 1   # mismatch stage first
+    .venv/bin/python benchmarks/effects.py --source testbed --mismatch --flops-version 2 --seeds 1 \
+        --out benchmarks/results/effects-testbed-mismatch-flops2.jsonl           # flops new to every seed
 
 ``--mismatch`` runs diagnose's mismatch stage (criticism.mismatch, diagnose's default; off here
 unless asked, so that rows compare with the tables measured before the stage) before the first identification,
@@ -122,21 +124,22 @@ def larger_effect(name: str, data: list, truth: dict) -> str:
     return max(costs, key=costs.get)
 
 
-def testbed_data(name: str, seed: int) -> tuple[list, list[str], dict]:
-    """Testbed data set ``name`` at ``seed`` (0.2 mm noise): two flops and the held-out flop, the
-    catalog effects that model its hidden ones (of a mix, the larger first) and their true values."""
+def testbed_data(name: str, seed: int, flops_version: int = 1) -> tuple[list, list[str], dict]:
+    """Testbed data set ``name`` at ``seed`` (0.2 mm noise; its flops' version, testbed.datasets): two
+    flops and the held-out flop, the catalog effects that model its hidden ones (of a mix, the larger
+    first) and their true values."""
     from testbed.datasets import cached_dataset
-    files = cached_dataset(name, seed, noise=0.0002)
+    files = cached_dataset(name, seed, noise=0.0002, version=flops_version)
     truth = json.loads((files["flop_0"].parent / "truth.json").read_text())
     data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
     names = list(TESTBED_TRUTH[name])
     if len(names) > 1:
-        larger = testbed_larger(name, seed, data[2], names)
+        larger = testbed_larger(name, seed, data[2], names, flops_version)
         names = [larger] + [n for n in names if n != larger]
     return data, names, truth["effects"]
 
 
-def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str]) -> str:
+def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flops_version: int = 1) -> str:
     """Of a testbed mix, the catalog effect whose hidden counterpart, switched off in the testbed,
     moves the noise-free held-out flop furthest from the data (RMS over nodes and samples)."""
     import tempfile
@@ -150,19 +153,20 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str]) -> 
     for effect in names:
         off = replace(effects, **{f: 0.0 for f in TESTBED_FIELDS[effect]})
         with tempfile.TemporaryDirectory() as tmp:
-            make_dataset(name, seed, tmp, effects=off, obs=Observation(noise=0.0))
+            make_dataset(name, seed, tmp, effects=off, obs=Observation(noise=0.0), version=flops_version)
             without = load_trajectory(Path(tmp) / "heldout_0.nc")["nodes"].values
         costs[effect] = float(np.sqrt(np.nanmean((without - observed) ** 2)))
     return max(costs, key=costs.get)
 
 
 def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
-            mismatch: bool = False) -> dict:
+            mismatch: bool = False, flops_version: int = 1) -> dict:
     if source == "testbed":
-        data, truth_names, true_values = testbed_data(name, seed)
-        return diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
-                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
-                            passes=max(1, len(truth_names)))
+        data, truth_names, true_values = testbed_data(name, seed, flops_version)
+        row = diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
+                           larger=truth_names[0] if truth_names else None, mismatch=mismatch,
+                           passes=max(1, len(truth_names)))
+        return {**row, "flops_version": flops_version}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
@@ -314,6 +318,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="default: every catalog effect, none, outside, mix, actuator+contact (own); every "
                     "testbed data set (testbed)")
     ap.add_argument("--mismatch", action="store_true", help="run diagnose's mismatch stage first")
+    ap.add_argument("--flops-version", type=int, default=1, help="of the testbed's flops (testbed.datasets: "
+                    "2 draws each flop's actuation from the seed; give such runs their own --out)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     args = ap.parse_args(argv)
@@ -328,15 +334,18 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out or f"benchmarks/results/effects-{args.held_out}{'-mismatch' if args.mismatch else ''}.jsonl")
     out.parent.mkdir(parents=True, exist_ok=True)
     saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
-    done = {(r["scenario"], r["seed"], r.get("held_out", "heading"), r.get("budget")) for r in saved}
+    done = {(r["scenario"], r["seed"], r.get("held_out", "heading"), r.get("budget"), r.get("flops_version", 1))
+            for r in saved}
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds
-            and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget]
+            and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget
+            and r.get("flops_version", 1) == args.flops_version]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
-            if (name, seed, args.held_out, args.budget) in done:
+            if (name, seed, args.held_out, args.budget, args.flops_version) in done:
                 continue
-            row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch), "budget": args.budget}
+            row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version),
+                   "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
