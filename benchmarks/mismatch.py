@@ -116,6 +116,9 @@ def summarize(rows: list[dict]) -> None:
               f"{e_ratio:6.2f}  {1e3 * n['drift']:13.1f} {1e3 * b['drift']:7.1f} {1e3 * a['drift']:7.1f} "
               f"{d_ratio:6.2f}  {', '.join(r['kept']) or 'none'} ({sizes}); {len(r['at_bounds'])} at bounds")
     for r in rows:
+        print(f"{r['dataset']} seed {r['seed']}: fit-error gain per trial " + "; ".join(
+            f"round {t['round']} {t['name']} {t['gain']:+.1%}" for t in r["trials"]))
+    for r in rows:
         print(f"{r['dataset']} seed {r['seed']}: residual " + "; ".join(
             f"{when} " + ", ".join(f"{k} {v['share']:.0%}" for k, v in w["phases"].items()) + ", "
             + ", ".join(f"{k} {v:.0%}" for k, v in w["frequency_share"].items())
