@@ -26,7 +26,14 @@ from belief.handoff import Carried, carry_over, continue_in
 from belief.identify import identify
 from belief.journal import Journal, Record
 from belief.least_squares import LocalStep, StepConfig, gauss_newton_step
-from belief.noise import NOISE_RULES, EffectiveSize, effective_size, noise_var_from_residuals, segment_discrepancy
+from belief.noise import (
+    DEFAULT_DISCREPANCY,
+    NOISE_RULES,
+    EffectiveSize,
+    effective_size,
+    noise_var_from_residuals,
+    segment_discrepancy,
+)
 from belief.posterior import (
     FLOORS,
     PosteriorConfig,
@@ -50,7 +57,8 @@ from belief.verdicts import VERDICTS, VerdictConfig
 __all__ = [
     "BeliefError", "BudgetError", "GridError", "JournalError", "ObjectiveError", "SurrogateError",
     "BudgetWarning", "Belief", "SamplingBelief", "CandidateSet", "Grid", "SobolCandidates", "candidates_from_config",
-    "NOISE_RULES", "EffectiveSize", "effective_size", "noise_var_from_residuals", "segment_discrepancy",
+    "DEFAULT_DISCREPANCY", "NOISE_RULES", "EffectiveSize", "effective_size", "noise_var_from_residuals",
+    "segment_discrepancy",
     "Proposal", "Proposer", "RandomProposer", "SobolDesign", "BOProposer", "VERDICTS", "VerdictConfig",
     "GPSurrogate", "SurrogateConfig",
     "log_h", "log_expected_improvement", "select_cells",

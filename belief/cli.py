@@ -41,6 +41,7 @@ import os
 import sys
 from typing import Any
 
+from belief.noise import DEFAULT_DISCREPANCY
 from belief.presets import DEFAULT_PRESET, PRESETS
 from physics.prior_box import add_prior_box_options, box_record
 
@@ -86,8 +87,9 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--noise-rule", choices=["ess", "iid"], default="ess",
                    help="sigma^2 when not given: 'ess' (effective residual count and discrepancy, default) or 'iid' "
                         "(E_min / (K - d), for comparison); docs/identification.md")
-    p.add_argument("--discrepancy", type=float, default=0.05,
-                   help="ess rule: relative excess error that costs one nat at least (default 0.05)")
+    p.add_argument("--discrepancy", type=float, default=DEFAULT_DISCREPANCY,
+                   help=f"ess rule: relative excess error that costs one nat at least, a prior on model error "
+                        f"(default {DEFAULT_DISCREPANCY}; 0.05 for data from this very model)")
     p.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
     p.add_argument("--resume", action="store_true",
                    help="continue the journal (an error when it is missing or of another problem); without it a "

@@ -65,7 +65,7 @@ import xarray as xr
 from scipy.special import log_ndtr, logsumexp
 
 from belief.errors import BeliefError
-from belief.noise import NOISE_RULES, iid_noise_var
+from belief.noise import DEFAULT_DISCREPANCY, NOISE_RULES, iid_noise_var
 
 if TYPE_CHECKING:
     from belief.grid import CandidateSet
@@ -100,7 +100,8 @@ class PosteriorConfig:
     objective or estimated by ``noise_rule``, "ess" or "iid", :mod:`belief.noise`); ``floor``: where
     the likelihood floors E, "auto" (at the smallest evaluated error when sigma^2 is estimated, at 0
     when it is known), "best" or "zero" (module docstring); ``discrepancy``:
-    δ_0 of the "ess" rule, the relative excess error that costs one nat at least;
+    δ_0 of the "ess" rule, the relative excess error that costs one nat at least (a prior on
+    model error, :data:`belief.noise.DEFAULT_DISCREPANCY`; 0.05 suits data from this very model);
     ``n_samples``/``max_subset``: minimizer-mode sampling;
     ``level``: credible level of the marginal interval; ``identified_ratio``: a parameter is
     *identified* when its posterior std < identified_ratio x its prior std.
@@ -110,7 +111,7 @@ class PosteriorConfig:
     noise_var: float | None = None
     noise_rule: str = "ess"
     floor: str = "auto"
-    discrepancy: float = 0.05
+    discrepancy: float = DEFAULT_DISCREPANCY
     n_samples: int = 2000
     max_subset: int = 1000
     level: float = 0.9
@@ -125,7 +126,7 @@ class PosteriorConfig:
             raise BeliefError(f"floor must be one of {FLOORS} (E floored at the best evaluated error when σ² is "
                               f"estimated, always, or at 0 only), got {self.floor!r}.")
         if not (np.isfinite(self.discrepancy) and self.discrepancy >= 0):
-            raise BeliefError(f"discrepancy must be a fraction >= 0 of E_min (e.g. 0.05), got {self.discrepancy!r}.")
+            raise BeliefError(f"discrepancy must be a fraction >= 0 of E_min (e.g. 0.2), got {self.discrepancy!r}.")
         if self.noise_var is not None and not (np.isfinite(self.noise_var) and self.noise_var > 0):
             raise BeliefError(f"noise_var must be a positive number (units of E) or None, got {self.noise_var!r}.")
         if not isinstance(self.n_samples, int) or self.n_samples < 1:

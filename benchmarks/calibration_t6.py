@@ -88,17 +88,19 @@ def problem_data(seed: int, scenario: str, *, duration: float = 3.0, noise: floa
 
 
 def identify_problem(seed: int, scenario: str, budgets: list[int], *, rule: str = "ess", candidates: int = 4096,
-                     duration: float = 3.0, workdir: str | None = None) -> dict[int, Outcome]:
-    """Outcomes of problem ``seed`` at each budget (one run, smaller budgets replayed from its journal)."""
+                     duration: float = 3.0, workdir: str | None = None, discrepancy: float = 0.05,
+                     journals: str | None = None) -> dict[int, Outcome]:
+    """Outcomes of problem ``seed`` at each budget (one run, smaller budgets replayed from its journal;
+    ``journals``: a folder that keeps the journals, so another posterior setting replays the same run)."""
     theta, data = problem_data(seed, scenario, duration=duration)
     space = ParameterSpace.t6()
     objective = TrajectoryObjective(data, loss="squared", n_workers=0)
     decoder = Identity(space)
     grid = SobolCandidates.for_decoder(decoder, n=candidates, seed=seed)
-    cfg = PosteriorConfig(noise_rule=rule)
+    cfg = PosteriorConfig(noise_rule=rule, discrepancy=discrepancy)
     out: dict[int, Outcome] = {}
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
-        journal = os.path.join(tmp, "run.sqlite")
+        journal = os.path.join(journals or tmp, f"{scenario}-{seed}-{max(budgets)}.sqlite")
         for budget in sorted(budgets, reverse=True):
             res = identify(objective, decoder, grid, budget=budget, seed=seed, journal=journal, progress=False,
                            posterior=cfg)
@@ -138,7 +140,9 @@ def score(outcomes: list[Outcome], *, old_flag: bool = False) -> dict[str, float
     return {"identified": n_id, "covered": hit, "coverage": hit / n_id if n_id else float("nan"),
             "worst_widths": worst, "per_problem": n_id / max(len(outcomes), 1),
             "claimed": sum(v != "not identified" for o in outcomes for v in o.verdict),
-            "miss_best": sum(misses_best(o))}
+            "miss_best": sum(misses_best(o)),
+            "holding": sum(int(np.sum((o.lower <= o.truth) & (o.truth <= o.upper))) for o in outcomes),
+            "intervals": sum(len(o.truth) for o in outcomes)}
 
 
 def misses_best(o: Outcome) -> list[int]:
@@ -162,6 +166,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
     p.add_argument("--rule", choices=["ess", "iid"], default="ess", help="noise rule of the likelihood posterior")
     p.add_argument("--first-seed", type=int, default=100)
+    p.add_argument("--discrepancy", type=float, default=PosteriorConfig().discrepancy,
+                   help="δ_0 of the 'ess' noise rule (belief.noise)")
+    p.add_argument("--journals", default=None, help="keep the runs' journals here (a rerun replays them)")
     p.add_argument("--bias", action="store_true", help="print the per-segment excess error of the truth instead")
     args = p.parse_args(argv)
     space = ParameterSpace.t6()
@@ -176,7 +183,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     for scenario in args.scenarios:
-        runs = [identify_problem(args.first_seed + k, scenario, args.budgets, rule=args.rule)
+        if args.journals:
+            os.makedirs(args.journals, exist_ok=True)
+        runs = [identify_problem(args.first_seed + k, scenario, args.budgets, rule=args.rule,
+                                 discrepancy=args.discrepancy, journals=args.journals)
                 for k in tqdm(range(args.problems), desc=scenario)]
         for budget in sorted(args.budgets):
             outs = [r[budget] for r in runs]
@@ -184,7 +194,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{scenario:9s} rule={args.rule} budget={budget:4d} problems={len(outs)}: identified {s['identified']} "
                   f"({s['per_problem']:.2f} per problem), covered {s['covered']} = {s['coverage']:.0%}, "
                   f"worst miss {s['worst_widths']:.2f} widths; identified or weakly: {s['claimed']}, "
-                  f"of which miss the best evaluation: {s['miss_best']}", flush=True)
+                  f"of which miss the best evaluation: {s['miss_best']}; every interval holding θ*: "
+                  f"{s['holding']} of {s['intervals']}", flush=True)
             old = score(outs, old_flag=True)
             print(f"    previous flag (std < prior std / 2) on the same P: identified {old['identified']}, covered "
                   f"{old['covered']} = {old['coverage']:.0%}, worst miss {old['worst_widths']:.2f} widths", flush=True)

@@ -40,6 +40,7 @@ from belief.belief import Belief
 from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
 from belief.grid import SobolCandidates
 from belief.identify import identify
+from belief.posterior import PosteriorConfig
 from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.result import IdentificationResult
 from criticism.errors import CriticismError
@@ -181,16 +182,18 @@ def _held_errors(objective: Objective, theta: np.ndarray, held: np.ndarray) -> d
 
 
 def identify_from(objective: Objective, warm: np.ndarray | None, *, budget: int, candidates: int, seed: int,
-                  journal: Path | None = None, progress: bool = True) -> IdentificationResult:
+                  journal: Path | None = None, progress: bool = True,
+                  posterior: PosteriorConfig | None = None) -> IdentificationResult:
     """Full-space BO on ``objective`` over ``candidates`` Sobol cells, ``budget`` evaluations;
-    ``warm`` (D,), a fit the caller already has, becomes cell 0 and is evaluated first."""
+    ``warm`` (D,), a fit the caller already has, becomes cell 0 and is evaluated first;
+    ``posterior``: the belief's options (default: the likelihood posterior's)."""
     space = objective.space
     decoder = Identity(space)
     include = None if warm is None else decoder.encode(np.clip(warm, space.lower, space.upper))[None]
     grid = SobolCandidates(decoder.bounds, n=candidates, seed=seed, include=include)
     proposer = "bo" if warm is None else BOProposer(seed, initial=WarmStart([0], SobolDesign(seed)))
     return identify(objective, decoder, grid, budget=budget, seed=seed, proposer=proposer,
-                    journal=journal, progress=progress)
+                    journal=journal, progress=progress, posterior=posterior or PosteriorConfig())
 
 
 def _check_held_out(n: int, held_out: Sequence[int] | None) -> list[int]:
