@@ -18,6 +18,7 @@ from criticism.html_report import write_diagnose_report
 from criticism.limits import require_diagnosable
 from criticism.mismatch import MismatchConfig
 from criticism.report import diagnosis_text, write_report
+from criticism.stage_journal import STAGE_JOURNAL
 from physics.cli_check import preflight
 from physics.model_file import effects_by_name
 from physics.outputs import check_output_dir, output_dir
@@ -81,11 +82,13 @@ def _check_prior_box(args: argparse.Namespace) -> None:
 
 
 def _before_run(args: argparse.Namespace, config: DiagnoseConfig) -> None:
-    """--resume needs the first pass's journal; a budget no larger than the first identification's
+    """--resume needs the stage's or the first pass's journal; a budget no larger than the first identification's
     initial design (max(5, D + 1) Sobol points, belief.search) means BO never runs: say so."""
     first = os.path.join(args.out, "identify_pass0.sqlite")
-    if args.resume and not os.path.exists(first):
-        raise JournalError(f"--resume: no journal at {first} to resume; run without --resume to start one.")
+    stage = os.path.join(args.out, STAGE_JOURNAL)
+    if args.resume and not (os.path.exists(first) or os.path.exists(stage)):
+        raise JournalError(f"--resume: no journal at {first} or {stage} to resume; run without --resume to start "
+                           "one.")
     n_init = max(5, ParameterSpace.t6().dim + 1)
     if config.budget <= n_init:
         _note(f"--budget {config.budget} is no more than the initial design of {n_init} Sobol points of each "

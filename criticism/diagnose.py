@@ -44,9 +44,10 @@ from belief.posterior import PosteriorConfig
 from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.result import IdentificationResult
 from criticism.errors import CriticismError
-from criticism.mismatch import MismatchConfig, MismatchReport, absorb_mismatch, superseded
+from criticism.mismatch import MismatchConfig, MismatchReport, superseded
 from criticism.residuals import residual_dataset, residual_summary
 from criticism.search import Criticism, CriticismConfig, criticize
+from criticism.stage_journal import journalled_stage
 from embeddings import Identity
 from physics.effects import Effect, catalog, effect_from_config
 from physics.objective import Objective
@@ -214,7 +215,8 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
 
     held_out: indices of the trajectories kept for scoring (default: the last third, at least one,
     when there are two or more); effects: the catalog to try (default physics.effects.catalog());
-    journal_dir: identifications are journalled there and resume after an interruption; options:
+    journal_dir: the mismatch stage (criticism.stage_journal) and the identifications are journalled
+    there and resume after an interruption; options:
     physics.ModelOptions of the model."""
     data = list(trajectories)
     if not data:
@@ -230,7 +232,7 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
     try:
         fit, held = split_masks(full.segments, held_idx)
         fit_objective = full.select(fit_idx)
-        stage = (absorb_mismatch(full, fit, held_idx, config=config.mismatch, progress=progress)
+        stage = (journalled_stage(full, fit, held_idx, config=config.mismatch, journal_dir=journals, progress=progress)
                  if config.mismatch is not None else None)
         added: tuple[Effect, ...] = stage.effects if stage is not None else ()
         tries = superseded(tries, added)

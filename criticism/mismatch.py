@@ -39,7 +39,7 @@ from belief.least_squares import LeastSquaresConfig
 from criticism.errors import CriticismError
 from criticism.residuals import residual_dataset, residual_summary
 from criticism.search import CriticismConfig, polish
-from physics.effects import CableAnchors, EndCapRadius, TensionLimitedActuation
+from physics.effects import CableAnchors, EndCapRadius, TensionLimitedActuation, effect_from_config
 from physics.effects.base import Effect
 from physics.errors import PhysicsError
 from physics.trajectory_objective import TrajectoryObjective
@@ -80,6 +80,12 @@ class MismatchConfig:
                                  f"{self.min_gain!r}, {self.rounds!r}, {self.drift_time!r}.")
         if not all(isinstance(c, Effect) for c in self.components):
             raise CriticismError("MismatchConfig.components must be physics.effects.Effect instances.")
+
+    def record(self) -> dict[str, Any]:
+        """The settings as a JSON-able dict (the components by their configs)."""
+        return {"components": [c.config() for c in self.components], "min_gain": self.min_gain,
+                "rounds": self.rounds, "drift_time": self.drift_time, "local": vars(self.local),
+                "bound_tolerance": self.bound_tolerance, "hold_measured": self.hold_measured}
 
 
 @dataclass(frozen=True)
@@ -159,6 +165,16 @@ class MismatchReport:
                 "trials": [vars(t) for t in self.trials], "before": vars(self.before), "after": vars(self.after),
                 "ratios": self.ratios(), "where_before": self.where_before, "where_after": self.where_after,
                 "at_bounds": [vars(b) for b in self.at_bounds], "in_sample": self.in_sample}
+
+    @classmethod
+    def from_dict(cls, record: dict[str, Any]) -> MismatchReport:
+        """The report back from :meth:`as_dict` (e.g. read from the stage's journal)."""
+        return cls(tuple(effect_from_config(c) for c in record["effects"]), tuple(record["names"]),
+                   np.asarray(record["theta"], float), np.asarray(record["base_theta"], float),
+                   [Trial(**{**t, "theta": tuple(t["theta"])}) for t in record["trials"]],
+                   HeldScores(**record["before"]), HeldScores(**record["after"]), record["where_before"],
+                   record["where_after"], tuple(AtBound(**b) for b in record["at_bounds"]), record["in_sample"])
+
 
 
 def where_text(where: dict[str, Any]) -> str:
