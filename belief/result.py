@@ -23,9 +23,29 @@ from belief.journal import Record
 from belief.posterior import credible_region
 from physics.parameters import ParameterSpace
 
-__all__ = ["IdentificationResult", "history_dataset", "FORMAT"]
+__all__ = ["IdentificationResult", "history_dataset", "noise_text", "FORMAT"]
 
 FORMAT = "tensegrid.identification/2"
+
+
+def noise_text(attrs: dict[str, Any]) -> str:
+    """One line on what set the likelihood's σ² (belief.noise), from a Belief's attrs; "" without one.
+
+    Under the "ess" rule σ² = max(E_min / K_eff, δ E_min / 2): the line names the larger term, so a
+    reader sees whether the residuals' own count or the discrepancy δ (the model-error prior δ_0,
+    or the segments' disagreement δ_seg) set the posterior's width."""
+    sigma2, rule, info = attrs.get("noise_var"), attrs.get("noise_rule"), attrs.get("noise") or {}
+    if sigma2 is None or not rule:
+        return ""
+    if rule != "ess" or "discrepancy" not in info:
+        return f"likelihood σ² = {sigma2:.4g} ({rule})"
+    delta, seg = float(info["discrepancy"]), float(info["segment_discrepancy"])
+    source = "the segments' disagreement" if seg >= delta else "the model-error floor δ_0"
+    floor_set = 0.5 * delta * float(attrs["best_error"]) >= float(sigma2) * (1.0 - 1e-9)
+    why = (f"set by the discrepancy δ = {delta:.3g} ({source}): an error {delta:.0%} above the best costs one nat"
+           if floor_set else f"set by the residuals: {info['n_effective']:.4g} effective of {info['n_observations']} "
+           f"(δ = {delta:.3g} sets less)")
+    return f"likelihood σ² = {sigma2:.4g}, {why}"
 
 
 def history_dataset(records: Sequence[Record], *, latent_names: tuple[str, ...], space: ParameterSpace,
@@ -120,6 +140,8 @@ class IdentificationResult:
         if "error" in local:
             tail += (f"\nlocal fit over all parameters (the local refit verdict rule): one Gauss-Newton step from "
                      f"the best evaluation gives E {local['error']:.6g} ({local['evaluations']} simulations)")
+        noise = noise_text(self.belief.attrs)
+        tail += f"\n{noise}" if noise else ""
         trust = self.belief.attrs.get("trust")          # why P cannot be trusted (belief.verdicts.trust_note)
         tail += f"\nwarning: {trust}" if trust else ""
         return self.belief.summary(truth=truth) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")

@@ -95,3 +95,19 @@ def test_discrepancy_floors_the_sharpness_relative_to_e_min() -> None:
     assert floored > 100 * plain
     with pytest.raises(BeliefError, match="discrepancy"):
         noise_var_from_residuals(E, [r], dim=2, discrepancy=-1.0)
+
+
+def test_the_summary_line_names_what_set_sigma2() -> None:
+    from belief.result import noise_text
+
+    info = {"n_effective": 50.0, "n_observations": 20000, "discrepancy": 0.2, "segment_discrepancy": 0.01}
+    floor = noise_text({"noise_var": 0.1 * 4.0, "noise_rule": "ess", "best_error": 4.0, "noise": info})
+    assert "discrepancy δ = 0.2 (the model-error floor δ_0)" in floor and "20% above the best" in floor
+    segs = noise_text({"noise_var": 0.6, "noise_rule": "ess", "best_error": 4.0,
+                       "noise": {**info, "discrepancy": 0.3, "segment_discrepancy": 0.3}})
+    assert "the segments' disagreement" in segs
+    counted = noise_text({"noise_var": 4.0 / 5, "noise_rule": "ess", "best_error": 4.0, "noise": info})
+    assert "set by the residuals: 50 effective of 20000" in counted
+    assert noise_text({"noise_var": 2.0, "noise_rule": "iid", "best_error": 4.0, "noise": {}}) == \
+        "likelihood σ² = 2 (iid)"
+    assert noise_text({"noise_var": None, "noise_rule": "none (minimizer mode)"}) == ""
