@@ -5,9 +5,10 @@ e.g. physics.TrajectoryObjective with ``loss="squared"``), the identified θ̂, 
 segments into *fit* segments F and *held-out* segments H:
 
 1. the base errors E_F(θ̃), E_H(θ̃) of the current model at the re-tuned θ̃ (below);
-2. for each catalog effect e not yet in the model: its parameters η_e are fitted on F with θ̂
-   held (a grid of ``grid`` values over each parameter's box, then ``refine`` values around the
-   best, one parameter at a time), and scored on H:
+2. for each catalog effect e not yet in the model (bound to the data first, Effect.bind: a floor
+   tilt the resting robot shows is measured, and its fit keeps near that measurement): its
+   parameters η_e are fitted on F with θ̂ held (a grid of ``grid`` values over each parameter's
+   box, then ``refine`` values around the best, one parameter at a time), and scored on H:
 
        explained_e = 1 - E_H(θ̃, η̂_e) / E_H(θ̃)                          (held-out fraction)
        evidence_e  = K_F ln(E_F(θ̃) / E_F(θ̃, η̂_e)) + K_H ln(E_H(θ̃) / E_H(θ̃, η̂_e)) - k_e ln(K_F + K_H)
@@ -372,7 +373,7 @@ def criticize(objective: EffectObjective, theta: np.ndarray, *, fit: np.ndarray 
         raise CriticismError("criticism needs a sum-of-squares objective (TrajectoryObjective(..., loss='squared')): "
                              "its evidence is a Gaussian likelihood ratio.")
     present = {e.name for e in objective.effects}
-    effects = [e for e in effects if e.name not in present]
+    effects = [e.bind(objective.trajectories) for e in effects if e.name not in present]    # sizes seen at rest
     start = np.asarray(theta, float)
     start_parts = np.asarray(objective.evaluate_parts(start), float)
     result = polish(objective, start, fit_mask, config)

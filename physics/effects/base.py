@@ -113,6 +113,12 @@ class Effect(abc.ABC):
         data show directly (a floor's tilt at rest), else the nominal ones; always inside the box."""
         return {p.name: p.nominal for p in self.parameters()}
 
+    def bind(self, trajectories: Sequence[xr.Dataset]) -> Effect:
+        """The effect as these observed trajectories determine it, before any fit. Most effects
+        return themselves; one whose size the data show directly (a floor's tilt, at rest) returns
+        a copy whose parameters may move only within what that measurement allows."""
+        return self
+
     def config(self) -> dict:
         """A JSON-able description: the effect's name and its options."""
         return {"effect": self.name}

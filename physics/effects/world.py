@@ -6,12 +6,17 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import xarray as xr
 
+from physics.checks_robot import LEVEL_DEG, REST_MOTION, rest_motion
 from physics.effects.base import Effect, ModelSetup
 from physics.errors import ParameterError
-from physics.ground import ground_plane
+from physics.ground import plane_below, rest_window
 from physics.parameters import Parameter
 
-__all__ = ["GroundSlope", "slope_normal", "EndCapRadius", "PointMass"]
+__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "resting_tilt", "slope_normal", "EndCapRadius", "PointMass"]
+
+#: ± half-width [rad] of a measured slope's box (0.5°): physics.ground's plane at rest is within
+#: 0.3° of the floor on the foreign testbed's 3° slope and level ground (tests/testbed)
+MEASURED_SLOPE_WIDTH = float(np.radians(0.5))
 
 
 class GroundSlope(Effect):
@@ -21,14 +26,34 @@ class GroundSlope(Effect):
     tilted ground plane through the origin, not a tilted gravity: its unit normal is
     n = (sin slope_x, sin slope_y, sqrt(1 − sin² slope_x − sin² slope_y)) and gravity stays −g ẑ.
     The resting robot's contact nodes then lie on a plane with that normal, which the data show
-    at rest (physics.ground.ground_plane: slope_x = arcsin n_x, slope_y = arcsin n_y)."""
+    at rest (physics.ground.ground_plane: slope_x = arcsin n_x, slope_y = arcsin n_y).
+
+    ``measured``: (slope_x, slope_y) read from the data at rest (:meth:`bind`); the parameters
+    then keep a box of ± ``width`` [rad] around it, so that a fit of the dynamics cannot move the
+    floor where the resting robot shows it is not (on another engine's data the dynamics alone
+    prefer tilts of several degrees on flat ground, to absorb what the model lacks)."""
 
     name = "ground_slope"
     description = "floor tilted about the x and y axes (world frame, gravity -z)"
 
+    def __init__(self, measured: Sequence[float] | None = None, width: float = MEASURED_SLOPE_WIDTH) -> None:
+        self.measured = None if measured is None else (float(measured[0]), float(measured[1]))
+        if not (np.isfinite(width) and width > 0):
+            raise ParameterError(f"GroundSlope width must be a positive angle [rad], got {width!r}.")
+        self.width = float(width)
+
     def parameters(self) -> tuple[Parameter, ...]:
-        return (Parameter("slope_x", "rad", 0.0, -0.15, 0.15, "floor descends along +x", minimum=-np.inf),
-                Parameter("slope_y", "rad", 0.0, -0.15, 0.15, "floor descends along +y", minimum=-np.inf))
+        if self.measured is None:
+            return (Parameter("slope_x", "rad", 0.0, -0.15, 0.15, "floor descends along +x", minimum=-np.inf),
+                    Parameter("slope_y", "rad", 0.0, -0.15, 0.15, "floor descends along +y", minimum=-np.inf))
+        return tuple(Parameter(n, "rad", v, v - self.width, v + self.width, f"floor descends along +{axis} "
+                               "(measured at rest)", minimum=-np.inf)
+                     for n, axis, v in zip(("slope_x", "slope_y"), "xy", self.measured, strict=True))
+
+    @property
+    def off(self) -> dict[str, float] | None:
+        """Level ground for the free slope; None once measured (its box need not hold a level floor)."""
+        return None if self.measured is not None else super().off
 
     def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
         setup.ground_normal = slope_normal(float(values["slope_x"]), float(values["slope_y"]))
@@ -36,12 +61,40 @@ class GroundSlope(Effect):
     def start(self, trajectories: Sequence[xr.Dataset]) -> dict[str, float]:
         """The slope of the plane the resting robot's contact nodes lie on (physics.ground), median
         over the trajectories that start at rest, clipped to the box; nominal (level) without one."""
-        planes = [p for p in (ground_plane(ds) for ds in trajectories) if p is not None]
-        if not planes:
+        tilt = resting_tilt(trajectories)
+        if tilt is None:
             return super().start(trajectories)
-        normal = np.median([p.normal for p in planes], axis=0)
-        return {q.name: float(np.clip(np.arcsin(v), q.lower, q.upper))
-                for q, v in zip(self.parameters(), normal[:2], strict=True)}
+        return {q.name: float(np.clip(v, q.lower, q.upper)) for q, v in zip(self.parameters(), tilt, strict=True)}
+
+    def bind(self, trajectories: Sequence[xr.Dataset]) -> Effect:
+        """The slope measured at rest (:func:`resting_tilt`, ± ``width``); itself when no trajectory
+        starts at rest or the slope is measured already."""
+        tilt = resting_tilt(trajectories) if self.measured is None else None
+        return self if tilt is None else GroundSlope(measured=tilt, width=self.width)
+
+    def config(self) -> dict:
+        if self.measured is None:
+            return {"effect": self.name}
+        return {"effect": self.name, "measured": list(self.measured), "width": self.width}
+
+
+def resting_tilt(trajectories: Sequence[xr.Dataset]) -> tuple[float, float] | None:
+    """(slope_x, slope_y) [rad] of the floor the resting robot shows: arcsin of the x and y
+    components of the median normal of physics.ground.ground_plane over the trajectories that start
+    at rest (no node moves more than physics.checks_robot.REST_MOTION over the rest window, and
+    the plane lies within LEVEL_DEG of level), clipped to ±0.15 rad; None when none does."""
+    normals = []
+    for ds in trajectories:
+        nodes = np.asarray(ds["nodes"].transpose("time", "node", "axis").values, float)
+        controls = np.asarray(ds["controls"].transpose("time", "cable").values, float) if "controls" in ds else None
+        window = nodes[rest_window(np.asarray(ds["time"].values, float), controls)]
+        plane = plane_below(window, np.array([0.0, 0.0, 1.0]))
+        if plane is not None and plane.tilt_deg <= LEVEL_DEG and rest_motion(window) <= REST_MOTION:
+            normals.append(plane.normal)
+    if not normals:
+        return None
+    normal = np.median(normals, axis=0)
+    return (float(np.clip(np.arcsin(normal[0]), -0.15, 0.15)), float(np.clip(np.arcsin(normal[1]), -0.15, 0.15)))
 
 
 def slope_normal(slope_x: float, slope_y: float) -> np.ndarray:

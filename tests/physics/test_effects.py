@@ -10,7 +10,7 @@ from physics.effects import (
     EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, CylinderCaps, EndCapRadius, GroundSlope, NonlinearStiffness,
     PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
 )
-from physics.effects.world import slope_normal
+from physics.effects.world import MEASURED_SLOPE_WIDTH, resting_tilt, slope_normal
 from physics.ground import ground_plane
 
 FREE = ModelOptions(gravity=0.0, ground=False, spin_damping=0.0)
@@ -90,6 +90,27 @@ def test_a_sloped_floor_keeps_gravity_vertical_and_tilts_the_ground_plane():
     assert plane is not None
     assert np.degrees(np.arccos(plane.normal @ slope_normal(0.06, -0.04))) < 0.1
     assert plane.height == pytest.approx(0.06, abs=2e-3)      # contact nodes one cap radius off the floor
+
+
+def test_a_slope_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
+    """GroundSlope.bind reads the tilt at rest (physics.ground): the bound effect's box is ± 0.5°
+    around it and holds the true tilt; it survives its config; data that never rest leave it free."""
+    effects = [GroundSlope()]
+    rest = simulate(_theta(effects, slope_x=0.06, slope_y=-0.04), effects=effects, duration=0.3, settle=1.5,
+                    sample_rate=100)
+    bound = GroundSlope().bind([rest])
+    assert isinstance(bound, GroundSlope) and bound.measured is not None
+    for p, truth in zip(bound.parameters(), (0.06, -0.04), strict=True):
+        assert p.lower < truth < p.upper and p.upper - p.lower == pytest.approx(2 * MEASURED_SLOPE_WIDTH)
+    assert bound.off is None                                  # a measured floor is not switched off by a value
+    assert effect_from_config(bound.config()) == bound and bound.bind([rest]) is bound
+    assert GroundSlope().start([rest]) == pytest.approx({"slope_x": 0.06, "slope_y": -0.04}, abs=2e-3)
+    flat = simulate(None, duration=0.3, settle=1.5, sample_rate=100)
+    assert np.abs(GroundSlope().bind([flat]).measured).max() < np.radians(0.1)
+    falling = simulate(None, duration=0.5, settle=0.0, sample_rate=100, options=ModelOptions(ground=False))
+    free = GroundSlope()
+    assert resting_tilt([falling]) is None                    # a plane under moving nodes is no floor
+    assert free.bind([falling]) is free
 
 
 def test_point_mass_adds_mass_and_moves_the_centre_of_mass_toward_it():
