@@ -39,9 +39,9 @@ import numpy as np
 from belief.posterior import PosteriorConfig
 from belief.result import IdentificationResult
 from criticism.diagnose import identify_from, split_masks
-from criticism.mismatch import MismatchConfig, absorb_mismatch
+from criticism.mismatch import MismatchConfig
+from criticism.stage_journal import journalled_stage
 from physics import TrajectoryObjective, load_trajectory
-from physics.effects import Effect, effect_from_config
 
 LABELS = ("flop_0", "flop_1", "heldout_0")
 INERT = ("motor_radius", "motor_friction", "motor_inertia")
@@ -74,19 +74,6 @@ def belief_row(result: IdentificationResult, truth: dict[str, float]) -> dict[st
     return out
 
 
-def _stage(objective: TrajectoryObjective, fit, cache: Path) -> tuple[tuple[Effect, ...], np.ndarray, np.ndarray]:
-    """(kept effects, augmented θ, bare θ_b) of the mismatch stage, read from ``cache`` (JSON) if it is there."""
-    if cache.exists():
-        saved = json.loads(cache.read_text())
-        return (tuple(effect_from_config(c) for c in saved["effects"]), np.asarray(saved["theta"]),
-                np.asarray(saved["base_theta"]))
-    stage = absorb_mismatch(objective, fit, [2], config=MismatchConfig(), progress=False)
-    cache.parent.mkdir(parents=True, exist_ok=True)
-    cache.write_text(json.dumps({"effects": [e.config() for e in stage.effects], "theta": stage.theta.tolist(),
-                                 "base_theta": stage.base_theta.tolist()}))
-    return stage.effects, stage.theta, stage.base_theta
-
-
 def _noise(result: IdentificationResult) -> dict[str, float]:
     """The posterior's σ² and the discrepancies behind it (belief.noise): δ, δ_seg, K, K_eff, E_min."""
     belief = result.belief
@@ -107,14 +94,16 @@ def run_one(seed: int, noise: float, budget: int, n_workers: int, journals: Path
     truth = json.loads((files["flop_0"].parent / "truth.json").read_text())["theta"]
     data = [load_trajectory(files[label]) for label in LABELS]
     start = time.perf_counter()
-    tag = f"seed{seed}-noise{noise:g}-budget{budget}"
+    folder = journals / f"seed{seed}-noise{noise:g}-budget{budget}"
+    folder.mkdir(parents=True, exist_ok=True)
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
-        effects, theta, base_theta = _stage(objective, fit, journals / f"{tag}-stage.json")
+        stage = journalled_stage(objective, fit, [2], config=MismatchConfig(), journal_dir=folder, progress=False)
+        effects, theta, base_theta = stage.effects, stage.theta, stage.base_theta
         model = objective.select([0, 1])
         starts = {"bare": (model, base_theta), "augmented": (model.with_effects(effects), theta)}
         results = {key: identify_from(starts[key][0], starts[key][1], budget=budget, candidates=2048, seed=seed,
-                                      progress=False, journal=journals / f"{tag}-{key}.sqlite", posterior=posterior)
+                                      progress=False, journal=folder / f"{key}.sqlite", posterior=posterior)
                    for key in models}
         nominal = dict(zip(model.space.names, model.space.nominal, strict=True))
         truth_error = model(model.space.as_array({**nominal, **truth}))
