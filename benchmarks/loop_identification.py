@@ -141,6 +141,10 @@ def summarize(rows: list[dict]) -> None:
         if "truth_excess" in r:
             print(f"  the truth (motor parameters nominal) fits the bare T6 {r['truth_excess']:.0%} worse than its "
                   f"best evaluation, E(θ*) / E_min − 1")
+        if "sigma2" in r:
+            print("  posterior σ²: " + "; ".join(
+                f"{k} δ = {v['discrepancy']:.3g} (segments' δ_seg {v['segment_discrepancy']:.3g}), K_eff "
+                f"{v['n_effective']:.3g} of {v['n_observations']}" for k, v in r["sigma2"].items()))
         for key in ("bare", "augmented"):
             print(f"  {key:9s} {_counts(r[key])}")
             held = [n for n, v in r[key].items() if v["verdict"] != "not identified"]
