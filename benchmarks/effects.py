@@ -59,7 +59,7 @@ import xarray as xr
 from criticism import DiagnoseConfig, diagnose
 from criticism.mismatch import MismatchConfig
 from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
-from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, model_space
+from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, effect_from_config, model_space
 
 #: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
 #: differences between two engines' SUPERballs are (an actuator reaching its target in 0.11 s,
@@ -187,7 +187,8 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
     top = first.ranking[0] if first.ranking else None
     row = {"scenario": name, "seed": seed, "truth": truth, "top": top.name if top else None,
            "top_explained": top.explained if top else None, "top_values": top.values if top else None,
-           "top_evidence": top.evidence if top else None, "floor": first.floor.name,
+           "top_evidence": top.evidence if top else None, "top_config": top.config if top else None,
+           "floor": first.floor.name,
            "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
            "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None, "n_eff_fit": first.n_eff_fit,
            "found": d.found, "alternatives": first.alternatives,
@@ -204,17 +205,19 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
     return row
 
 
-def _at_bound(effect: str, values: dict[str, float]) -> list[str]:
-    """The parameters of a fitted catalog effect within 1 % of the box width of a bound."""
+def _at_bound(effect: str, values: dict[str, float], config: dict | None = None) -> list[str]:
+    """The parameters of a fitted catalog effect within 1 % of the box width of a bound: the box of
+    the effect as fitted (``config``, Effect.config: a measured slope or bias keeps a box around
+    its measurement), of the free effect for rows that do not record it."""
     out = []
-    for p in EFFECT_TYPES[effect]().parameters():
+    for p in (effect_from_config(config) if config else EFFECT_TYPES[effect]()).parameters():
         v, width = values.get(p.name), p.upper - p.lower
         if v is not None and min(v - p.lower, p.upper - v) <= 0.01 * width:
             out.append(f"{p.name} at its {'lower' if v - p.lower < p.upper - v else 'upper'} bound")
     return out
 
 
-def testbed_size(effect: str, values: dict[str, float], truth: dict) -> str:
+def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dict | None = None) -> str:
     """The fitted size of a catalog effect next to the testbed's hidden one, in the testbed's terms
     (slope: tilt [deg] and the angle between fitted and true floor normals; marker offset: its z
     [mm]; delay [ms]; others in each one's own unit, the laws differing), flagged at a bound."""
@@ -233,7 +236,7 @@ def testbed_size(effect: str, values: dict[str, float], truth: dict) -> str:
         units = {p.name: p.unit for p in EFFECT_TYPES[effect]().parameters()}
         fitted = ", ".join(f"{k}={v:.4g} {units[k]}" for k, v in values.items())
         text = f"{fitted} (testbed, its own law and unit: " + ", ".join(f"{k}={v}" for k, v in truth.items()) + ")"
-    return "; ".join([text, *_at_bound(effect, values)])
+    return "; ".join([text, *_at_bound(effect, values, config)])
 
 
 def summarize(rows: list[dict]) -> None:
@@ -267,7 +270,7 @@ def summarize(rows: list[dict]) -> None:
         print("\nsizes where the true effect is ranked first (testbed):")
     for r in sized:
         print(f"{r['scenario']} seed {r['seed']}{' (found)' if r['found'] else ''}: "
-              + testbed_size(r["top"], r["top_values"], r["true_values"]))
+              + testbed_size(r["top"], r["top_values"], r["true_values"], r.get("top_config")))
         for name, e in (r.get("estimates") or {}).items():
             print(f"    re-identified {name}: {e['value']:.4g} in [{e.get('lower', float('nan')):.4g}, "
                   f"{e.get('upper', float('nan')):.4g}] ({e.get('verdict', '')}{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''})")

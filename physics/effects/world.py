@@ -9,10 +9,10 @@ import xarray as xr
 from physics.checks_robot import LEVEL_DEG, REST_MOTION, rest_motion
 from physics.effects.base import Effect, ModelSetup
 from physics.errors import ParameterError
-from physics.ground import plane_below, rest_window
+from physics.ground import GroundPlane, plane_below, rest_window
 from physics.parameters import Parameter
 
-__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "resting_tilt", "slope_normal", "EndCapRadius", "PointMass"]
+__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "resting_planes", "resting_tilt", "resting_height", "slope_normal", "EndCapRadius", "PointMass"]
 
 #: ± half-width [rad] of a measured slope's box (0.5°): physics.ground's plane at rest is within
 #: 0.3° of the floor on the foreign testbed's 3° slope and level ground (tests/testbed)
@@ -78,23 +78,38 @@ class GroundSlope(Effect):
         return {"effect": self.name, "measured": list(self.measured), "width": self.width}
 
 
-def resting_tilt(trajectories: Sequence[xr.Dataset]) -> tuple[float, float] | None:
-    """(slope_x, slope_y) [rad] of the floor the resting robot shows: arcsin of the x and y
-    components of the median normal of physics.ground.ground_plane over the trajectories that start
-    at rest (no node moves more than physics.checks_robot.REST_MOTION over the rest window, and
-    the plane lies within LEVEL_DEG of level), clipped to ±0.15 rad; None when none does."""
-    normals = []
+def resting_planes(trajectories: Sequence[xr.Dataset]) -> list[GroundPlane]:
+    """The planes under the resting robot (physics.ground.plane_below of each trajectory's rest
+    window), of the trajectories that start at rest: no node moves more than
+    physics.checks_robot.REST_MOTION over the window, and the plane lies within LEVEL_DEG of level."""
+    planes = []
     for ds in trajectories:
         nodes = np.asarray(ds["nodes"].transpose("time", "node", "axis").values, float)
         controls = np.asarray(ds["controls"].transpose("time", "cable").values, float) if "controls" in ds else None
         window = nodes[rest_window(np.asarray(ds["time"].values, float), controls)]
         plane = plane_below(window, np.array([0.0, 0.0, 1.0]))
         if plane is not None and plane.tilt_deg <= LEVEL_DEG and rest_motion(window) <= REST_MOTION:
-            normals.append(plane.normal)
-    if not normals:
+            planes.append(plane)
+    return planes
+
+
+def resting_tilt(trajectories: Sequence[xr.Dataset]) -> tuple[float, float] | None:
+    """(slope_x, slope_y) [rad] of the floor the resting robot shows: arcsin of the x and y
+    components of the median normal of :func:`resting_planes`, clipped to ±0.15 rad; None when no
+    trajectory starts at rest."""
+    planes = resting_planes(trajectories)
+    if not planes:
         return None
-    normal = np.median(normals, axis=0)
+    normal = np.median([p.normal for p in planes], axis=0)
     return (float(np.clip(np.arcsin(normal[0]), -0.15, 0.15)), float(np.clip(np.arcsin(normal[1]), -0.15, 0.15)))
+
+
+def resting_height(trajectories: Sequence[xr.Dataset]) -> float | None:
+    """Height [m] of the resting robot's contact nodes above the floor they lie on: the median
+    offset n·x of :func:`resting_planes` (a node on a sphere cap of radius r touching a floor
+    through the origin sits at r); None when no trajectory starts at rest."""
+    planes = resting_planes(trajectories)
+    return float(np.median([p.height for p in planes])) if planes else None
 
 
 def slope_normal(slope_x: float, slope_y: float) -> np.ndarray:

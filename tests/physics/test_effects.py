@@ -7,10 +7,23 @@ import pytest
 
 from physics import FlopController, ModelOptions, ParameterError, T6Model, TrajectoryObjective, simulate
 from physics.effects import (
-    EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, CylinderCaps, EndCapRadius, GroundSlope, NonlinearStiffness,
-    PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
+    EFFECT_TYPES,
+    ActuatorDelay,
+    AirDrag,
+    CableHysteresis,
+    CylinderCaps,
+    EndCapRadius,
+    GroundSlope,
+    NonlinearStiffness,
+    PointMass,
+    RateLimitedActuation,
+    SensorBias,
+    catalog,
+    effect_from_config,
+    model_space,
 )
-from physics.effects.world import MEASURED_SLOPE_WIDTH, resting_tilt, slope_normal
+from physics.effects.sensing import MEASURED_BIAS_WIDTH
+from physics.effects.world import MEASURED_SLOPE_WIDTH, resting_height, resting_tilt, slope_normal
 from physics.ground import ground_plane
 
 FREE = ModelOptions(gravity=0.0, ground=False, spin_damping=0.0)
@@ -111,6 +124,29 @@ def test_a_slope_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
     free = GroundSlope()
     assert resting_tilt([falling]) is None                    # a plane under moving nodes is no floor
     assert free.bind([falling]) is free
+
+
+def test_a_bias_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
+    """SensorBias.bind reads the contact nodes' height at rest: seen at r + b, r the nominal radius,
+    so the bound box is b ± MEASURED_BIAS_WIDTH and holds the truth; level data without a bias
+    bind near zero; data that never rest leave it free."""
+    effects = [SensorBias()]
+    rest = simulate(_theta(effects, sensor_bias_z=0.015), effects=effects, duration=0.3, settle=1.5,
+                    sample_rate=100)
+    assert resting_height([rest]) == pytest.approx(0.06 + 0.015, abs=2e-3)
+    bound = SensorBias().bind([rest])
+    assert isinstance(bound, SensorBias) and bound.measured == pytest.approx(0.015, abs=2e-3)
+    (p,) = bound.parameters()
+    assert p.lower < 0.015 < p.upper and p.upper - p.lower == pytest.approx(2 * MEASURED_BIAS_WIDTH)
+    assert p.lower > -0.05 + 0.015 - 1e-9                     # a sunken robot (b = -35 mm) is out of reach
+    assert bound.off is None and effect_from_config(bound.config()) == bound and bound.bind([rest]) is bound
+    flat = simulate(None, duration=0.3, settle=1.5, sample_rate=100)
+    assert abs(SensorBias().bind([flat]).measured) < 2e-3
+    falling = simulate(None, duration=0.5, settle=0.0, sample_rate=100, options=ModelOptions(ground=False))
+    free = SensorBias()
+    assert resting_height([falling]) is None and free.bind([falling]) is free
+    with pytest.raises(ParameterError, match="width"):
+        SensorBias(measured=0.0, width=0.0)
 
 
 def test_point_mass_adds_mass_and_moves_the_centre_of_mass_toward_it():
