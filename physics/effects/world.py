@@ -12,7 +12,8 @@ from physics.errors import ParameterError
 from physics.ground import GroundPlane, plane_below, rest_window
 from physics.parameters import Parameter
 
-__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "resting_planes", "resting_tilt", "resting_height", "slope_normal", "EndCapRadius", "PointMass"]
+__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "resting_planes", "resting_tilt", "resting_height", "slope_normal",
+           "EndCapRadius", "PointMass"]
 
 #: ± half-width [rad] of a measured slope's box (0.5°): physics.ground's plane at rest is within
 #: 0.3° of the floor on the foreign testbed's 3° slope and level ground (tests/testbed)
