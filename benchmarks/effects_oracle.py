@@ -1,0 +1,144 @@
+"""What the true effect itself explains on the foreign testbed: a ceiling for any effect search.
+
+benchmarks/effects.py measures whether criticism *finds* a testbed effect hidden in the data. This
+script asks how much of the held-out residual the catalog effect could explain at all if the
+search knew its true size. Per testbed data set and seed (flops version 2, 0.2 mm noise; fit on
+``flop_0`` and ``flop_1``, held out ``heldout_0``, as diagnose splits them):
+
+1. the mismatch stage (criticism.mismatch, journalled under ``--journals``) augments the T6;
+2. the base: the augmented model re-tuned on the fit flops (criticism.polish from the stage's θ):
+   E_F, E_H;
+3. the truth: the catalog effect that models the hidden one, at the testbed's true size, added
+   with its size held and the model's parameters re-tuned on the fit flops (polish over θ only):
+   explained_true = 1 - E_H(truth) / E_H(base);
+4. the truth let go: the same fit with the effect's size free too, started at the truth:
+   explained_free, and where the size went.
+
+Catalog effects in the testbed's terms (benchmarks/testbed/effects.py): ``slope`` -> ground_slope
+at the true floor normal; ``actuator_delay`` -> actuator_delay; ``extra_mass`` -> point_mass on
+the same rod at the same place; ``ground_viscosity`` -> ground_viscosity at the same coefficient;
+``marker_offset`` -> sensor_bias at the offset's z. Drag and hysteresis are left out: the
+testbed's laws (linear drag, softer unloading) have no true size in the catalog's.
+
+    .venv/bin/python benchmarks/effects_oracle.py --seeds 1                # seed 0, every data set
+    .venv/bin/python benchmarks/effects_oracle.py --summarize benchmarks/results/effects-oracle.jsonl
+
+Rows go to ``--out`` (JSON lines); a (data set, seed) already there is skipped.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from criticism import CriticismConfig
+from criticism.diagnose import split_masks
+from criticism.mismatch import MismatchConfig
+from criticism.search import polish
+from criticism.stage_journal import journalled_stage
+from physics import TrajectoryObjective, load_trajectory
+from physics.effects import ActuatorDelay, Effect, GroundSlope, GroundViscosity, PointMass, SensorBias
+
+DATASETS = ("slope", "actuator_delay", "extra_mass", "ground_viscosity", "marker_offset")
+
+
+def true_effect(name: str, seed: int, truth: dict) -> tuple[Effect, dict[str, float]]:
+    """The catalog effect behind testbed data set ``name`` and its true parameter values."""
+    if name == "slope":
+        t, a = truth["slope"], truth["slope_azimuth"]
+        return GroundSlope(), {"slope_x": float(np.arcsin(-np.sin(t) * np.cos(a))),
+                               "slope_y": float(np.arcsin(-np.sin(t) * np.sin(a)))}
+    if name == "actuator_delay":
+        return ActuatorDelay(), {"actuator_delay": truth["actuator_delay"]}
+    if name == "extra_mass":
+        from testbed.datasets import robot_for
+        robot = robot_for(name, seed)[0]
+        half = 0.5 * robot.theta["rod_length"]
+        return (PointMass(rod=robot.effects.extra_mass_rod, position=robot.effects.extra_mass_at / half),
+                {"point_mass": truth["extra_mass"]})
+    if name == "ground_viscosity":
+        return GroundViscosity(), {"ground_viscosity": truth["ground_viscosity"]}
+    if name == "marker_offset":
+        return SensorBias(), {"sensor_bias_z": truth["marker_offset"][2]}
+    raise KeyError(f"no catalog truth for testbed data set {name!r}; choose from {DATASETS}.")
+
+
+def run_one(name: str, seed: int, journals: Path, config: CriticismConfig) -> dict:
+    """The row of one data set and seed (module docstring)."""
+    from testbed.datasets import cached_dataset
+    files = cached_dataset(name, seed, noise=0.0002, version=2)
+    truth = json.loads((files["flop_0"].parent / "truth.json").read_text())["effects"]
+    data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
+    start = time.perf_counter()
+    full = TrajectoryObjective(data, horizon=25, loss="squared", windows=3)
+    try:
+        fit, held = split_masks(full.segments, [2])
+        stage = journalled_stage(full, fit, [2], config=MismatchConfig(), journal_dir=journals / f"{name}-s{seed}",
+                                 progress=False)
+        model = full.with_effects(stage.effects)
+        base = polish(model, stage.theta, fit, config)
+        effect, values = true_effect(name, seed, truth)
+        extended = model.with_effects(tuple(stage.effects) + (effect,))
+        at_truth = np.r_[base.theta, [values[p.name] for p in effect.parameters()]]
+        D = model.space.dim
+        held_size = polish(extended, at_truth, fit, config, indices=range(D))
+        free = polish(extended, held_size.theta, fit, config)
+    finally:
+        full.close()
+
+    def errors(parts: np.ndarray) -> tuple[float, float]:
+        return float(parts[fit].sum()), float(parts[held].sum())
+
+    (bf, bh), (tf, th), (ff, fh) = errors(base.parts), errors(held_size.parts), errors(free.parts)
+    return {"dataset": name, "seed": seed, "kept": [e.name for e in stage.effects], "truth": values,
+            "base_fit": bf, "base_held": bh, "true_fit": tf, "true_held": th, "free_fit": ff, "free_held": fh,
+            "explained_true": 1 - th / bh, "explained_free": 1 - fh / bh, "fit_gain_true": 1 - tf / bf,
+            "free_values": {n: float(v) for n, v in zip(extended.space.names[D:], free.theta[D:], strict=True)},
+            "seconds": time.perf_counter() - start}
+
+
+def summarize(rows: list[dict]) -> None:
+    print(f"{'data set':18s} {'seed':>4} {'fit gain, true size':>20} {'held-out explained, true size':>30} "
+          f"{'size free':>10}  fitted size (true)")
+    for r in rows:
+        sizes = ", ".join(f"{k}={v:.4g} ({r['truth'][k]:.4g})" for k, v in r["free_values"].items())
+        print(f"{r['dataset']:18s} {r['seed']:4d} {r['fit_gain_true']:20.1%} {r['explained_true']:30.1%} "
+              f"{r['explained_free']:10.1%}  {sizes}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--first-seed", type=int, default=0)
+    ap.add_argument("--datasets", nargs="*", default=list(DATASETS), choices=DATASETS)
+    ap.add_argument("--journals", default=".cache/oracle", help="one folder per data set for the stage's journal")
+    ap.add_argument("--out", default="benchmarks/results/effects-oracle.jsonl")
+    ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
+    args = ap.parse_args(argv)
+    if args.summarize:
+        summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
+        return 0
+    out = Path(args.out)
+    saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
+    done = {(r["dataset"], r["seed"]) for r in saved}
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    for seed in seeds:
+        for name in args.datasets:
+            if (name, seed) in done:
+                continue
+            row = run_one(name, seed, Path(args.journals), CriticismConfig())
+            saved.append(row)
+            with out.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+            print(f"{name} seed {seed}: truth explains {row['explained_true']:.1%} of the held-out error "
+                  f"({row['seconds']:.0f} s)", flush=True)
+    summarize([r for r in saved if r["seed"] in seeds and r["dataset"] in args.datasets])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
