@@ -64,6 +64,7 @@ def _read(path: Path, fingerprint: dict[str, Any]) -> MismatchReport | None:
 
 def _write(path: Path, fingerprint: dict[str, Any], report: MismatchReport) -> None:
     temporary = path.with_name(path.name + ".partial")
+    path.parent.mkdir(parents=True, exist_ok=True)
     temporary.write_text(json.dumps({"fingerprint": fingerprint, "report": report.as_dict()}))
     os.replace(temporary, path)
 

@@ -7,16 +7,11 @@ import numpy as np
 import xarray as xr
 
 from physics.effects.base import Effect, ModelSetup
-from physics.effects.world import resting_height
+from physics.effects.world import MEASURED_CONTACT_WIDTH, contact_excess
 from physics.errors import ParameterError
-from physics.parameters import T6_NOMINAL, Parameter
+from physics.parameters import Parameter
 
-__all__ = ["SensorBias", "MEASURED_BIAS_WIDTH"]
-
-#: ± half-width [m] of a measured bias's box: the contact height of the model's caps is its radius,
-#: within ±6 mm of nominal over the radius box, and another engine's caps rest at other heights
-#: than DART's spheres (the foreign testbed's rest 10 mm lower at the same radius)
-MEASURED_BIAS_WIDTH = 0.02
+__all__ = ["SensorBias"]
 
 
 class SensorBias(Effect):
@@ -25,14 +20,15 @@ class SensorBias(Effect):
     invariant to them, so no data can identify them.
 
     ``measured``: the bias the resting robot shows (:meth:`bind`): its contact nodes are seen at
-    h = r + b, r the caps' contact radius (the nominal rod radius), so b = h − r. The parameter then
+    h = r + b, r the caps' contact radius (the nominal rod radius), so b = h − r
+    (physics.effects.world.contact_excess). The parameter then
     keeps a box of ± ``width`` around it: a fit of the dynamics cannot sink the model's robot into
     the floor (or lift it off) where the resting robot shows it is not."""
 
     name = "sensor_bias"
     description = "constant vertical offset of the observed positions"
 
-    def __init__(self, measured: float | None = None, width: float = MEASURED_BIAS_WIDTH) -> None:
+    def __init__(self, measured: float | None = None, width: float = MEASURED_CONTACT_WIDTH) -> None:
         if measured is not None and not np.isfinite(measured):
             raise ParameterError(f"SensorBias measured must be a finite offset [m], got {measured!r}.")
         if not (np.isfinite(width) and width > 0):
@@ -57,10 +53,10 @@ class SensorBias(Effect):
         setup.observation_offset = setup.observation_offset + np.array([0.0, 0.0, values["sensor_bias_z"]])
 
     def bind(self, trajectories: Sequence[xr.Dataset]) -> Effect:
-        """The bias measured at rest (physics.effects.world.resting_height minus the nominal radius,
-        ± ``width``); itself when no trajectory starts at rest or the bias is measured already."""
-        height = resting_height(trajectories) if self.measured is None else None
-        return self if height is None else SensorBias(measured=height - T6_NOMINAL["radius"], width=self.width)
+        """The bias measured at rest (physics.effects.world.contact_excess, ± ``width``); itself when
+        no trajectory starts at rest or the bias is measured already."""
+        excess = contact_excess(trajectories) if self.measured is None else None
+        return self if excess is None else SensorBias(measured=excess, width=self.width)
 
     def config(self) -> dict:
         if self.measured is None:

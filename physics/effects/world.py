@@ -10,14 +10,19 @@ from physics.checks_robot import LEVEL_DEG, REST_MOTION, rest_motion
 from physics.effects.base import Effect, ModelSetup
 from physics.errors import ParameterError
 from physics.ground import GroundPlane, plane_below, rest_window
-from physics.parameters import Parameter
+from physics.parameters import T6_NOMINAL, Parameter
 
-__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "resting_planes", "resting_tilt", "resting_height", "slope_normal",
-           "EndCapRadius", "PointMass"]
+__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "MEASURED_CONTACT_WIDTH", "resting_planes", "resting_tilt",
+           "resting_height", "contact_excess", "slope_normal", "EndCapRadius", "PointMass"]
 
 #: ± half-width [rad] of a measured slope's box (0.5°): physics.ground's plane at rest is within
 #: 0.3° of the floor on the foreign testbed's 3° slope and level ground (tests/testbed)
 MEASURED_SLOPE_WIDTH = float(np.radians(0.5))
+#: ± half-width [m] of a box around a contact height measured at rest (a sensor bias, a cap radius):
+#: the model's caps rest their nodes at the rod radius, within ±6 mm of nominal over its box, and
+#: another engine's caps rest at other heights than DART's spheres (the foreign testbed's flat
+#: cylinder ends: 10 mm lower at the same radius)
+MEASURED_CONTACT_WIDTH = 0.02
 
 
 class GroundSlope(Effect):
@@ -113,6 +118,14 @@ def resting_height(trajectories: Sequence[xr.Dataset]) -> float | None:
     return float(np.median([p.height for p in planes])) if planes else None
 
 
+def contact_excess(trajectories: Sequence[xr.Dataset]) -> float | None:
+    """How much higher [m] the resting robot's contact nodes are seen than the nominal T6 rests
+    them: :func:`resting_height` minus the nominal rod radius. A sensor bias b and a cap radius
+    change Δr both add to it (h = r + Δr + b); None when no trajectory starts at rest."""
+    height = resting_height(trajectories)
+    return None if height is None else height - T6_NOMINAL["radius"]
+
+
 def slope_normal(slope_x: float, slope_y: float) -> np.ndarray:
     """Unit normal (3,) of a floor descending by ``slope_x`` along +x and ``slope_y`` along +y [rad]."""
     sx, sy = np.sin(slope_x), np.sin(slope_y)
@@ -121,14 +134,46 @@ def slope_normal(slope_x: float, slope_y: float) -> np.ndarray:
 
 class EndCapRadius(Effect):
     """The end caps touch the ground with a sphere of radius ``radius + cap_radius_change`` [m]
-    instead of ``radius`` (a flatter or smaller cap than the rod's end segment)."""
+    instead of ``radius`` (a flatter or smaller cap than the rod's end segment).
+
+    ``measured``: the change the resting robot shows (:meth:`bind`): its contact nodes are seen at
+    h = r + Δr, so Δr = h − r (:func:`contact_excess`); the parameter then keeps ± ``width`` around
+    it, within the free box: a fit of the dynamics cannot sink the model's robot into the floor
+    (or lift it off) where the resting robot shows it is not."""
 
     name = "end_cap_radius"
     description = "contact radius of the end caps differs from the rod radius"
+    FREE = (-0.04, 0.03)
+
+    def __init__(self, measured: float | None = None, width: float = MEASURED_CONTACT_WIDTH) -> None:
+        if not (np.isfinite(width) and width > 0):
+            raise ParameterError(f"EndCapRadius width must be a positive length [m], got {width!r}.")
+        box = None if measured is None or not np.isfinite(measured) else self._box(float(measured), width)
+        if measured is not None and box is None:
+            raise ParameterError(f"EndCapRadius measured = {measured!r} m leaves no change within ±{width} m inside "
+                                 f"{self.FREE} m.")
+        self.measured = None if measured is None else float(measured)
+        self.width = float(width)
+        self._measured_box = box
+
+    @classmethod
+    def _box(cls, measured: float, width: float) -> tuple[float, float] | None:
+        """[measured − width, measured + width] within the free box; None when they do not overlap."""
+        lower, upper = max(measured - width, cls.FREE[0]), min(measured + width, cls.FREE[1])
+        return (lower, upper) if lower < upper else None
 
     def parameters(self) -> tuple[Parameter, ...]:
-        return (Parameter("cap_radius_change", "m", 0.0, -0.04, 0.03, "contact radius minus rod radius",
-                          minimum=-np.inf),)
+        if self.measured is None or self._measured_box is None:
+            return (Parameter("cap_radius_change", "m", 0.0, *self.FREE, "contact radius minus rod radius",
+                              minimum=-np.inf),)
+        lower, upper = self._measured_box
+        return (Parameter("cap_radius_change", "m", float(np.clip(self.measured, lower, upper)), lower, upper,
+                          "contact radius minus rod radius (measured at rest)", minimum=-np.inf),)
+
+    @property
+    def off(self) -> dict[str, float] | None:
+        """The rod's own radius for the free effect; None once measured (its box need not hold it)."""
+        return None if self.measured is not None else super().off
 
     def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
         radius = setup.cap_radius + values["cap_radius_change"]
@@ -136,6 +181,19 @@ class EndCapRadius(Effect):
             raise ParameterError(f"cap_radius_change = {values['cap_radius_change']} m leaves a contact radius of "
                                  f"{radius:.4f} m; it must stay >= 0.005 m.")
         setup.cap_radius = radius
+
+    def bind(self, trajectories: Sequence[xr.Dataset]) -> Effect:
+        """The change measured at rest (:func:`contact_excess`, ± ``width``); itself when no trajectory
+        starts at rest, the measurement leaves no change inside the free box, or it is measured already."""
+        excess = contact_excess(trajectories) if self.measured is None else None
+        if excess is None or self._box(excess, self.width) is None:
+            return self
+        return EndCapRadius(measured=excess, width=self.width)
+
+    def config(self) -> dict:
+        if self.measured is None:
+            return {"effect": self.name}
+        return {"effect": self.name, "measured": self.measured, "width": self.width}
 
 
 class CylinderCaps(Effect):

@@ -53,6 +53,7 @@ def test_a_second_run_reads_the_stage_and_another_problem_is_refused(objective, 
     monkeypatch.setattr(stage_journal, "absorb_mismatch", stage)
     fit = np.ones(len(objective.segments), bool)
     config = MismatchConfig()
+    tmp_path = tmp_path / "robot-0"                                   # a folder not made yet is made
     first = journalled_stage(objective, fit, [1], config=config, journal_dir=tmp_path, progress=False)
     assert len(calls) == 1 and (tmp_path / STAGE_JOURNAL).exists()
     assert not list(tmp_path.glob("*.partial"))                       # written whole

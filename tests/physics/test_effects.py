@@ -22,8 +22,14 @@ from physics.effects import (
     effect_from_config,
     model_space,
 )
-from physics.effects.sensing import MEASURED_BIAS_WIDTH
-from physics.effects.world import MEASURED_SLOPE_WIDTH, resting_height, resting_tilt, slope_normal
+from physics.effects.world import (
+    MEASURED_CONTACT_WIDTH,
+    MEASURED_SLOPE_WIDTH,
+    contact_excess,
+    resting_height,
+    resting_tilt,
+    slope_normal,
+)
 from physics.ground import ground_plane
 
 FREE = ModelOptions(gravity=0.0, ground=False, spin_damping=0.0)
@@ -128,7 +134,7 @@ def test_a_slope_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
 
 def test_a_bias_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
     """SensorBias.bind reads the contact nodes' height at rest: seen at r + b, r the nominal radius,
-    so the bound box is b ± MEASURED_BIAS_WIDTH and holds the truth; level data without a bias
+    so the bound box is b ± MEASURED_CONTACT_WIDTH and holds the truth; level data without a bias
     bind near zero; data that never rest leave it free."""
     effects = [SensorBias()]
     rest = simulate(_theta(effects, sensor_bias_z=0.015), effects=effects, duration=0.3, settle=1.5,
@@ -137,7 +143,7 @@ def test_a_bias_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
     bound = SensorBias().bind([rest])
     assert isinstance(bound, SensorBias) and bound.measured == pytest.approx(0.015, abs=2e-3)
     (p,) = bound.parameters()
-    assert p.lower < 0.015 < p.upper and p.upper - p.lower == pytest.approx(2 * MEASURED_BIAS_WIDTH)
+    assert p.lower < 0.015 < p.upper and p.upper - p.lower == pytest.approx(2 * MEASURED_CONTACT_WIDTH)
     assert p.lower > -0.05 + 0.015 - 1e-9                     # a sunken robot (b = -35 mm) is out of reach
     assert bound.off is None and effect_from_config(bound.config()) == bound and bound.bind([rest]) is bound
     flat = simulate(None, duration=0.3, settle=1.5, sample_rate=100)
@@ -147,6 +153,23 @@ def test_a_bias_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
     assert resting_height([falling]) is None and free.bind([falling]) is free
     with pytest.raises(ParameterError, match="width"):
         SensorBias(measured=0.0, width=0.0)
+
+
+def test_a_cap_radius_the_resting_robot_shows_is_measured_and_kept_within_the_free_box():
+    """EndCapRadius.bind reads Δr = h − r at rest and keeps ±MEASURED_CONTACT_WIDTH of it inside the
+    free box: the true change is inside, a cap that would sink the resting robot 30 mm is not."""
+    effects = [EndCapRadius()]
+    rest = simulate(_theta(effects, cap_radius_change=-0.025), effects=effects, duration=0.3, settle=1.5,
+                    sample_rate=100)
+    assert contact_excess([rest]) == pytest.approx(-0.025, abs=2e-3)
+    bound = EndCapRadius().bind([rest])
+    assert isinstance(bound, EndCapRadius) and bound.measured == pytest.approx(-0.025, abs=2e-3)
+    (p,) = bound.parameters()
+    assert p.lower == EndCapRadius.FREE[0] and p.upper == pytest.approx(bound.measured + MEASURED_CONTACT_WIDTH)
+    assert p.lower < -0.025 < p.upper and p.upper < 0.0      # no larger cap than the rod: the data rest lower
+    assert bound.off is None and effect_from_config(bound.config()) == bound and bound.bind([rest]) is bound
+    with pytest.raises(ParameterError, match="no change"):
+        EndCapRadius(measured=0.2)                           # 20 cm above the floor: no cap in the box
 
 
 def test_point_mass_adds_mass_and_moves_the_centre_of_mass_toward_it():
