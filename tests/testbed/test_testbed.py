@@ -212,3 +212,26 @@ def test_flops_of_version_2_are_drawn_per_seed_and_version_1_stays_fixed():
     assert flops_for(robot_for("nominal", 3)[1], 2) == flops_for(robot_for("nominal", 3)[1], 2)
     with pytest.raises(ValueError, match="version"):
         flops_for(robot_for("nominal", 0)[1], 3)
+
+
+def test_contact_effects_bound_on_the_foreign_robot_cannot_sink_it() -> None:
+    """SensorBias and EndCapRadius bound to the testbed's resting robot (flat cylinder ends rest
+    their nodes lower than DART's spheres at the same radius) measure that height against the
+    nominal radius, and their boxes hold neither the +36 mm bias nor the +30 mm cap that free fits
+    of the dynamics chose on its viscous floor (docs/diagnose.md); the marker offset's 10 mm along
+    z shows in the measured bias."""
+    from physics.effects import EndCapRadius, SensorBias
+    from physics.effects.world import contact_excess
+    from testbed.datasets import cached_dataset
+
+    robot = _settled(seconds=2.0)
+    resting = float(np.sort(robot.nodes()[:, 2])[:3].mean())
+    robot.close()
+    flops = {name: [load_trajectory(cached_dataset(name, 0, noise=0.0002, version=2)[f"flop_{k}"]) for k in (0, 1)]
+             for name in ("ground_viscosity", "marker_offset")}
+    excess = contact_excess(flops["ground_viscosity"])
+    assert excess == pytest.approx(resting - NOMINAL["radius"], abs=0.002) and excess < -0.005
+    for effect in (SensorBias(), EndCapRadius()):
+        (p,) = effect.bind(flops["ground_viscosity"]).parameters()
+        assert p.lower <= excess <= p.upper and p.upper < 0.025, (effect.name, p)
+    assert contact_excess(flops["marker_offset"]) - excess == pytest.approx(0.01, abs=0.002)
