@@ -16,6 +16,11 @@ those it moved there from θ̂, and those the identification already found pinne
 "at bound" verdict rule). A fit that ends on the box's edge would leave it if it could: model
 inadequacy, not estimates (:func:`retuned_at_bounds`).
 
+Before the first identification, effects the data show directly are added without a search
+(:func:`shown_at_rest`: each catalog effect bound to the data, Effect.bind, that is then
+Effect.evident, such as a floor tilted by degrees under the resting robot): a search would only
+weigh their dynamics, while the resting pose already settles them.
+
 Passes repeat (``passes``) until criticism finds nothing. Held-out trajectories never enter an
 identification; the effect fit of criticism uses only the fit trajectories. With one trajectory
 there is nothing to hold out: criticism alternates its time windows between fit and held-out,
@@ -55,7 +60,8 @@ from physics.parameters import ParameterSpace
 from physics.tensegrity import ModelOptions
 from physics.trajectory_objective import TrajectoryObjective
 
-__all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "identify_from", "split_masks", "retuned_at_bounds"]
+__all__ = ["DiagnoseConfig", "Pass", "Diagnosis", "diagnose", "identify_from", "split_masks", "retuned_at_bounds",
+           "shown_at_rest"]
 
 
 @dataclass(frozen=True)
@@ -66,7 +72,8 @@ class DiagnoseConfig:
     (belief.bounds); mismatch: the mismatch stage (criticism.mismatch) run before the first
     identification, whose components the identification and the search then keep (None: off). It
     is on by default: measured data always carry engine mismatch, and on the engine's own data it
-    keeps nothing (tests/criticism/test_mismatch.py), so the rest of the loop is as without it."""
+    keeps nothing (tests/criticism/test_mismatch.py), so the rest of the loop is as without it;
+    measure_at_rest: add the effects the resting robot shows (:func:`shown_at_rest`) before identifying."""
 
     passes: int = 2
     budget: int = 40
@@ -77,6 +84,7 @@ class DiagnoseConfig:
     criticism: CriticismConfig = field(default_factory=CriticismConfig)
     bound_tolerance: float = AT_BOUND_TOLERANCE
     mismatch: MismatchConfig | None = field(default_factory=MismatchConfig)
+    measure_at_rest: bool = True
 
     def __post_init__(self) -> None:
         if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
@@ -135,7 +143,8 @@ class Pass:
 class Diagnosis:
     """Result of :func:`diagnose`: the passes, the final effects, the held-out trajectories
     (indices; empty with one trajectory: then errors are in-sample), the first identification's
-    Belief (None if it made none) and the objective's settings."""
+    Belief (None if it made none), the objective's settings, the mismatch stage's report and the
+    effects measured at rest (:func:`shown_at_rest`, bound to the data)."""
 
     passes: list[Pass]
     effects: tuple[str, ...]
@@ -143,11 +152,17 @@ class Diagnosis:
     belief: Belief | None
     settings: dict[str, Any]
     mismatch: MismatchReport | None = None
+    measured: tuple[Effect, ...] = ()
 
     @property
     def found(self) -> list[str]:
-        """The effects added, in order."""
-        return [p.added for p in self.passes if p.added is not None]
+        """The effects added, in order: those measured at rest, then those criticism found."""
+        return [e.name for e in self.measured] + [p.added for p in self.passes if p.added is not None]
+
+    @property
+    def first_model(self) -> tuple[Effect, ...]:
+        """The effects of the model of pass 1: the mismatch stage's components, then those measured at rest."""
+        return (self.mismatch.effects if self.mismatch is not None else ()) + self.measured
 
 
 def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -207,6 +222,22 @@ def _check_held_out(n: int, held_out: Sequence[int] | None) -> list[int]:
     return held
 
 
+def shown_at_rest(trajectories: Sequence[xr.Dataset], effects: Sequence[Effect]) -> tuple[Effect, ...]:
+    """The ``effects`` that, bound to ``trajectories`` (Effect.bind), are evident (Effect.evident):
+    the data show them at rest beyond doubt, so they join the model without a search."""
+    bound = [e.bind(trajectories) for e in effects]
+    return tuple(b for b in bound if b.evident)
+
+
+def _warm(stage: MismatchReport | None, shown: Sequence[Effect]) -> np.ndarray | None:
+    """The first identification's warm start: the stage's θ, extended by the measured values of the
+    effects shown at rest (their parameters' nominal values); None without a stage that kept or
+    measured anything."""
+    if stage is None or not (stage.effects or shown):
+        return None
+    return np.r_[np.asarray(stage.theta, float), [p.nominal for e in shown for p in e.parameters()]]
+
+
 def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | None = None,
              effects: Sequence[Effect] | None = None, config: DiagnoseConfig = DiagnoseConfig(),
              journal_dir: str | os.PathLike[str] | None = None, options: ModelOptions | None = None,
@@ -234,9 +265,10 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
         fit_objective = full.select(fit_idx)
         stage = (journalled_stage(full, fit, held_idx, config=config.mismatch, journal_dir=journals, progress=progress)
                  if config.mismatch is not None else None)
-        added: tuple[Effect, ...] = stage.effects if stage is not None else ()
+        shown = shown_at_rest(data, superseded(tries, stage.effects if stage else ())) if config.measure_at_rest else ()
+        added: tuple[Effect, ...] = (stage.effects if stage is not None else ()) + shown
         tries = superseded(tries, added)
-        warm0 = stage.theta if stage is not None and added else None
+        warm0 = _warm(stage, shown)
         ident = identify_from(fit_objective.with_effects(added), warm0, budget=config.budget,
                               candidates=config.candidates, seed=config.seed, journal=_journal(journals, 0),
                               progress=progress)
@@ -266,9 +298,9 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
             step.belief_after = ident.belief
         settings = {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
                     "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
-                    "bound_tolerance": config.bound_tolerance,
+                    "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,
                     "fit_trajectories": fit_idx, "segments": list(full.segments)}
-        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage)
+        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown)
     finally:
         full.close()
 

@@ -120,6 +120,12 @@ def write_diagnose_report(out: str | Path, d: Diagnosis, trajectories: Sequence[
                         "component change") + f": held-out one-step error ×{ratios['one_step']:.2f}, open-loop "
                        f"drift ×{ratios['drift']:.2f} (after / before). The passes below start from this model.")
         page.code(d.mismatch.text())
+    if d.measured:
+        page.section("Measured at rest")
+        sizes = "; ".join(f"{e.name} (" + ", ".join(f"{q.name} = {q.nominal:.4g} {q.unit}" for q in e.parameters())
+                          + ")" for e in d.measured)
+        page.paragraph("The resting robot shows these effects directly, so they joined the model before the first "
+                       f"identification, their parameters kept near the measurement: {sizes}.")
     page.section("Passes")
     for k, p in enumerate(d.passes, 1):
         _pass(page, k, p, d)

@@ -1,6 +1,7 @@
 """The report of a diagnosis: text tables, a JSON record, the final model and figures (matplotlib, Agg).
 
-``model.json`` holds the final model (the mismatch stage's components, then the effects found)
+``model.json`` holds the final model (the mismatch stage's components, the effects measured at rest,
+then the effects found)
 and its θ̂ (physics.model_file), so that ``tensegrid identify --model DIR/model.json`` identifies
 with it.
 
@@ -41,6 +42,7 @@ def diagnosis_text(d: Diagnosis) -> str:
     """Ranking per pass, the parameters the re-tuning left at a bound (model inadequacy) and the
     held-out error before and after, as plain text (after the mismatch stage's, when it ran)."""
     out = [] if d.mismatch is None else [d.mismatch.text()]
+    out += [f"measured at rest: {e.name} ({_measured(e)}), added before identifying" for e in d.measured]
     scope = (f"held-out trajectories {d.held_out}" if d.held_out
              else "one trajectory: odd windows held out from the effect fit, errors in-sample")
     for k, p in enumerate(d.passes, 1):
@@ -59,6 +61,12 @@ def diagnosis_text(d: Diagnosis) -> str:
             out.append(pinned)
         out += _outcome(p)
     return "\n".join(out)
+
+
+def _measured(effect: Effect) -> str:
+    """An effect measured at rest as text: its parameters' measured values and boxes."""
+    return "; ".join(f"{q.name}={q.nominal:.4g} {q.unit}, kept within [{q.lower:.4g}, {q.upper:.4g}]"
+                     for q in effect.parameters())
 
 
 def _outcome(p: Pass) -> list[str]:
@@ -91,9 +99,11 @@ def _estimate(name: str, e: dict[str, Any]) -> str:
 def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
     """The JSON-able record of diagnosis.json: settings, and per pass the criticism, θ̃ ("theta"),
     the parameters at a bound after the re-tuning ("at_bounds", belief.bounds.AtBound.as_dict),
-    the held-out errors and the re-identified estimates; "mismatch": the mismatch stage's record or None."""
+    the held-out errors and the re-identified estimates; "mismatch": the mismatch stage's record or None;
+    "measured": the configs of the effects measured at rest."""
     return {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
             "mismatch": None if d.mismatch is None else d.mismatch.as_dict(),
+            "measured": [e.config() for e in d.measured],
             "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
                         "added": p.added, "held_after": p.held_after, "estimates": p.estimates(),
                         "theta_after": None if p.theta_after is None
@@ -109,12 +119,12 @@ def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequen
 
 
 def _staged(d: Diagnosis) -> list[Effect]:
-    """The effects the mismatch stage added (the model of pass 1), [] without the stage."""
-    return [] if d.mismatch is None else list(d.mismatch.effects)
+    """The effects of the model of pass 1: the mismatch stage's and those measured at rest."""
+    return list(d.first_model)
 
 
 def _final(d: Diagnosis) -> tuple[list[Effect], np.ndarray]:
-    """The final model's effects (the mismatch stage's, then those found) and θ̂."""
+    """The final model's effects (the mismatch stage's, those measured at rest, then those found) and θ̂."""
     effects: list[Effect] = _staged(d)
     theta = d.passes[0].theta
     for p in d.passes:

@@ -119,6 +119,13 @@ class Effect(abc.ABC):
         a copy whose parameters may move only within what that measurement allows."""
         return self
 
+    @property
+    def evident(self) -> bool:
+        """Whether the effect, as bound (:meth:`bind`), shows in the data beyond doubt without any fit
+        of the dynamics (a floor tilted by degrees at rest, which no other part of the model can
+        make): diagnose then adds it before identifying instead of searching for it. False for most."""
+        return False
+
     def config(self) -> dict:
         """A JSON-able description: the effect's name and its options."""
         return {"effect": self.name}

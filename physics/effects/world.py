@@ -12,12 +12,15 @@ from physics.errors import ParameterError
 from physics.ground import GroundPlane, plane_below, rest_window
 from physics.parameters import T6_NOMINAL, Parameter
 
-__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "MEASURED_CONTACT_WIDTH", "resting_planes", "resting_tilt",
-           "resting_height", "contact_excess", "slope_normal", "EndCapRadius", "PointMass"]
+__all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "EVIDENT_TILT", "MEASURED_CONTACT_WIDTH", "resting_planes",
+           "resting_tilt", "resting_height", "contact_excess", "slope_normal", "EndCapRadius", "PointMass"]
 
 #: ± half-width [rad] of a measured slope's box (0.5°): physics.ground's plane at rest is within
 #: 0.3° of the floor on the foreign testbed's 3° slope and level ground (tests/testbed)
 MEASURED_SLOPE_WIDTH = float(np.radians(0.5))
+#: tilt [rad] of a measured floor beyond which the slope is evident at rest (GroundSlope.evident,
+#: 1°): twice the box's half-width, over three times physics.ground's error on the testbed (0.3°)
+EVIDENT_TILT = float(np.radians(1.0))
 #: ± half-width [m] of a box around a contact height measured at rest (a sensor bias, a cap radius):
 #: the model's caps rest their nodes at the rod radius, within ±6 mm of nominal over its box, and
 #: another engine's caps rest at other heights than DART's spheres (the foreign testbed's flat
@@ -60,6 +63,14 @@ class GroundSlope(Effect):
     def off(self) -> dict[str, float] | None:
         """Level ground for the free slope; None once measured (its box need not hold a level floor)."""
         return None if self.measured is not None else super().off
+
+    @property
+    def evident(self) -> bool:
+        """A measured floor tilted by more than EVIDENT_TILT: the resting robot shows it, and nothing
+        else in the model tilts the plane its contact nodes lie on."""
+        if self.measured is None:
+            return False
+        return bool(np.arccos(np.clip(slope_normal(*self.measured)[2], -1.0, 1.0)) > EVIDENT_TILT)
 
     def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
         setup.ground_normal = slope_normal(float(values["slope_x"]), float(values["slope_y"]))

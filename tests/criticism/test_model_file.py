@@ -1,7 +1,7 @@
 """The model a diagnosis ends with, handed to identification: diagnose writes DIR/model.json
 (physics.model_file), ``tensegrid identify --model`` and ``--effects`` identify with it; the
 reports of a diagnosis with the mismatch stage (report figures of the augmented model, the stage
-in report.html)."""
+in report.html); effects measured at rest join the model before the search."""
 from __future__ import annotations
 
 import argparse
@@ -11,13 +11,13 @@ import pytest
 import xarray as xr
 
 from belief.least_squares import LeastSquaresConfig
-from criticism.diagnose import DiagnoseConfig, diagnose
+from criticism.diagnose import DiagnoseConfig, diagnose, shown_at_rest
 from criticism.html_report import write_diagnose_report
 from criticism.mismatch import MismatchConfig
-from criticism.report import write_report
+from criticism.report import diagnosis_record, diagnosis_text, write_report
 from physics import FlopController, save_trajectory, simulate
 from physics.cli import main
-from physics.effects import ActuatorDelay, CableAnchors, TensionLimitedActuation, model_space
+from physics.effects import ActuatorDelay, CableAnchors, GroundSlope, TensionLimitedActuation, model_space
 from physics.errors import ParameterError
 from physics.model_file import effects_by_name, read_model_file, write_model_file
 
@@ -83,3 +83,28 @@ def test_diagnose_writes_the_model_with_the_stage_s_components_and_identify_uses
     assert main(["identify", "--toy", "push", "--effects", "cable_anchors", "--out", str(tmp_path / "toy")]) == 2
     assert "the push toy has none" in capsys.readouterr().err
     assert not (tmp_path / "toy").exists()
+
+
+@pytest.mark.slow
+def test_a_floor_the_resting_robot_shows_tilted_joins_the_model_before_the_search(tmp_path) -> None:
+    """Flops on a 2.9° floor: the slope is measured at rest and added before identifying (not ranked
+    by the search), reported, and written to model.json with its measured box; level flops add nothing."""
+    effects = [GroundSlope()]
+    theta = model_space(effects).as_array({**model_space(effects).as_dict(None), "slope_x": 0.05})
+    data = [simulate(theta, controller=FlopController(h), duration=0.6, effects=effects, noise=2e-4, seed=k)
+            for k, h in enumerate((0.0, 2.1))]
+    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None)
+    d = diagnose(data, held_out=[1], effects=[GroundSlope(), ActuatorDelay()], config=config, n_workers=0,
+                 progress=False)
+    assert [e.name for e in d.measured] == ["ground_slope"] and d.found[0] == "ground_slope"
+    assert d.passes[0].effects == ("ground_slope",)
+    assert [c.name for c in d.passes[0].criticism.ranking] == ["actuator_delay"]
+    (slope_x, _slope_y) = d.measured[0].parameters()
+    assert slope_x.lower < 0.05 < slope_x.upper
+    assert "measured at rest: ground_slope (slope_x=" in diagnosis_text(d)
+    assert diagnosis_record(d)["measured"][0]["effect"] == "ground_slope"
+    write_report(d, data, tmp_path / "diag")
+    record = json.loads((tmp_path / "diag" / "model.json").read_text())
+    assert record["effects"][0]["effect"] == "ground_slope" and "measured" in record["effects"][0]
+    level = [simulate(None, controller=FlopController(0.0), duration=0.6, noise=2e-4, seed=0)]
+    assert shown_at_rest(level, [GroundSlope(), ActuatorDelay()]) == ()

@@ -7,27 +7,11 @@ import pytest
 
 from physics import FlopController, ModelOptions, ParameterError, T6Model, TrajectoryObjective, simulate
 from physics.effects import (
-    EFFECT_TYPES,
-    ActuatorDelay,
-    AirDrag,
-    CableHysteresis,
-    CylinderCaps,
-    EndCapRadius,
-    GroundSlope,
-    NonlinearStiffness,
-    PointMass,
-    RateLimitedActuation,
-    SensorBias,
-    catalog,
-    effect_from_config,
-    model_space,
+    EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, CylinderCaps, EndCapRadius, GroundSlope, NonlinearStiffness,
+    PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
 )
 from physics.effects.world import (
-    MEASURED_CONTACT_WIDTH,
-    MEASURED_SLOPE_WIDTH,
-    contact_excess,
-    resting_height,
-    resting_tilt,
+    EVIDENT_TILT, MEASURED_CONTACT_WIDTH, MEASURED_SLOPE_WIDTH, contact_excess, resting_height, resting_tilt,
     slope_normal,
 )
 from physics.ground import ground_plane
@@ -124,8 +108,12 @@ def test_a_slope_the_resting_robot_shows_is_measured_and_its_fit_kept_near_it():
     assert bound.off is None                                  # a measured floor is not switched off by a value
     assert effect_from_config(bound.config()) == bound and bound.bind([rest]) is bound
     assert GroundSlope().start([rest]) == pytest.approx({"slope_x": 0.06, "slope_y": -0.04}, abs=2e-3)
+    assert bound.evident and not GroundSlope().evident         # 4.1°, seen at rest; unmeasured, nothing is
     flat = simulate(None, duration=0.3, settle=1.5, sample_rate=100)
     assert np.abs(GroundSlope().bind([flat]).measured).max() < np.radians(0.1)
+    assert not GroundSlope().bind([flat]).evident
+    assert GroundSlope(measured=(0.9 * EVIDENT_TILT, 0.0)).evident is False
+    assert GroundSlope(measured=(1.1 * EVIDENT_TILT, 0.0)).evident is True
     falling = simulate(None, duration=0.5, settle=0.0, sample_rate=100, options=ModelOptions(ground=False))
     free = GroundSlope()
     assert resting_tilt([falling]) is None                    # a plane under moving nodes is no floor
