@@ -15,8 +15,9 @@ catalog); ``mix`` (ground slope and actuator delay); ``actuator+contact`` (rate-
 and end-cap radius, as another engine's SUPERball differs from this one).
 
 Printed per scenario: seeds; how often the true effect (of a mix, the larger one: the one whose
-omission raises the held-out error at the true parameters most) is ranked first, is ranked first
-or named as an alternative the data cannot tell from the found one, and is found; how often any
+omission raises the held-out error at the true parameters most) is ranked first (or measured at
+rest and added before the search, criticism.diagnose.shown_at_rest: it is then found too), is
+ranked first or named as an alternative the data cannot tell from the found one, and is found; how often any
 effect is claimed; the median held-out explained fraction of the top effect; the median (and
 largest) held-out error after / before adding the found effect(s); the median estimated size
 against the true one; for mixes how often the second effect is found on pass 2.
@@ -191,7 +192,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "floor": first.floor.name,
            "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
            "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None, "n_eff_fit": first.n_eff_fit,
-           "found": d.found, "alternatives": first.alternatives,
+           "found": d.found, "measured": [e.name for e in d.measured], "alternatives": first.alternatives,
            "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error}
                           for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],
@@ -249,9 +250,10 @@ def summarize(rows: list[dict]) -> None:
         truth = rs[0]["truth"]
         first = rs[0].get("larger", truth[0] if truth else None) if truth and name != "outside" else None
         other = [t for t in truth if t != first]
-        top_ok = sum(r["top"] == first for r in rs) if first else "-"
+        top_ok = sum(r["top"] == first or first in r.get("measured", []) for r in rs) if first else "-"
         found_ok = sum(bool(r["found"]) and r["found"][0] == first for r in rs) if first else "-"
-        named = sum(r["top"] == first or first in r.get("alternatives", []) for r in rs) if first else "-"
+        named = (sum(r["top"] == first or first in r.get("alternatives", []) + r.get("measured", []) for r in rs)
+                 if first else "-")
         claimed = sum(bool(r["found"]) for r in rs)
         explained = np.median([r["top_explained"] for r in rs if r["top_explained"] is not None])
         ratios = [r["held_after"] / r["held_before"] for r in rs if r["held_after"] is not None]
