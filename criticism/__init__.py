@@ -6,7 +6,8 @@ and whether adding that effect helps on held-out data.
 - :mod:`criticism.search`: rank a catalog of effects (physics.effects) by the held-out error they
   explain beyond re-tuning the model's own parameters (evidence as a BIC difference), verdict
   "found" or "unexplained";
-- :mod:`criticism.diagnose`: the loop identify -> criticize -> add the effect -> re-identify;
+- :mod:`criticism.diagnose`: the loop identify -> criticize -> add the effect -> re-identify (after
+  the mismatch stage and the effects the resting robot shows);
 - :mod:`criticism.report`: the diagnosis as text, JSON and figures; :mod:`criticism.cli`: the
   ``tensegrid diagnose`` command.
 
@@ -17,7 +18,7 @@ below it imports criticism.
 """
 from __future__ import annotations
 
-from criticism.diagnose import DiagnoseConfig, Diagnosis, Pass, diagnose, retuned_at_bounds, split_masks
+from criticism.diagnose import DiagnoseConfig, Diagnosis, Pass, diagnose, retuned_at_bounds, shown_at_rest, split_masks
 from criticism.errors import CriticismError
 from criticism.report import diagnosis_record, diagnosis_text, write_report
 from criticism.residuals import PHASES, PhaseRule, phases, residual_dataset, residual_summary
@@ -25,7 +26,7 @@ from criticism.search import Candidate, Criticism, CriticismConfig, criticize, f
 
 __all__ = [
     "CriticismError",
-    "DiagnoseConfig", "Diagnosis", "Pass", "diagnose", "retuned_at_bounds", "split_masks",
+    "DiagnoseConfig", "Diagnosis", "Pass", "diagnose", "retuned_at_bounds", "shown_at_rest", "split_masks",
     "CriticismConfig", "Candidate", "Criticism", "criticize", "fit_effect", "polish",
     "PHASES", "PhaseRule", "phases", "residual_dataset", "residual_summary",
     "diagnosis_text", "diagnosis_record", "write_report",
