@@ -240,6 +240,11 @@ def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dic
     return "; ".join([text, *_at_bound(effect, values, config)])
 
 
+def _searched(row: dict) -> list[str]:
+    """The effects a row's search found, in order (those measured at rest left out)."""
+    return [f for f in row["found"] if f not in row.get("measured", [])]
+
+
 def summarize(rows: list[dict]) -> None:
     print(f"{'scenario':22s} {'seeds':>5} {'top=true':>8} {'named':>5} {'found':>6} {'claimed':>7} {'explained':>9} "
           f"{'after/before (max)':>18} {'criticism fit (true)':>24} {'2nd found':>9}")
@@ -251,7 +256,7 @@ def summarize(rows: list[dict]) -> None:
         first = rs[0].get("larger", truth[0] if truth else None) if truth and name != "outside" else None
         other = [t for t in truth if t != first]
         top_ok = sum(r["top"] == first or first in r.get("measured", []) for r in rs) if first else "-"
-        found_ok = sum(bool(r["found"]) and r["found"][0] == first for r in rs) if first else "-"
+        found_ok = sum(first in r.get("measured", []) or _searched(r)[:1] == [first] for r in rs) if first else "-"
         named = (sum(r["top"] == first or first in r.get("alternatives", []) + r.get("measured", []) for r in rs)
                  if first else "-")
         claimed = sum(bool(r["found"]) for r in rs)
@@ -263,7 +268,8 @@ def summarize(rows: list[dict]) -> None:
             key = next(iter(SIZES[first]))
             vals = [r["top_values"].get(key) for r in rs if r["top"] == first]
             est = f"{np.median(vals):.4g} ({SIZES[first][key]:.4g})" if vals else "-"
-        second = sum(len(r["found"]) > 1 and r["found"][1] == other[0] for r in rs) if len(truth) > 1 else "-"
+        second = (sum(other[0] in r.get("measured", []) or _searched(r)[1:2] == [other[0]] for r in rs)
+                  if len(truth) > 1 else "-")
         print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(named):>5} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
               f"{ratio:>18} {est:>24} {str(second):>9}")
     details(rows)
