@@ -56,6 +56,7 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from jsonl_rows import read_rows
 
 from criticism import DiagnoseConfig, diagnose
 from criticism.mismatch import MismatchConfig
@@ -335,7 +336,7 @@ def main(argv: list[str] | None = None) -> int:
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     args = ap.parse_args(argv)
     if args.summarize:
-        summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
+        summarize(read_rows(args.summarize))
         return 0
     if args.scenarios is None:
         args.scenarios = (list(TESTBED_TRUTH) if args.source == "testbed"
@@ -344,7 +345,7 @@ def main(argv: list[str] | None = None) -> int:
         args.held_out = "testbed"
     out = Path(args.out or f"benchmarks/results/effects-{args.held_out}{'-mismatch' if args.mismatch else ''}.jsonl")
     out.parent.mkdir(parents=True, exist_ok=True)
-    saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
+    saved = read_rows(out)
     done = {(r["scenario"], r["seed"], r.get("held_out", "heading"), r.get("budget"), r.get("flops_version", 1))
             for r in saved}
     seeds = range(args.first_seed, args.first_seed + args.seeds)

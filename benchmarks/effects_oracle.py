@@ -34,6 +34,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from jsonl_rows import read_rows
 
 from criticism import CriticismConfig
 from criticism.diagnose import split_masks
@@ -120,10 +121,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
     if args.summarize:
-        summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
+        summarize(read_rows(args.summarize))
         return 0
     out = Path(args.out)
-    saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
+    saved = read_rows(out)
     done = {(r["dataset"], r["seed"]) for r in saved}
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     for seed in seeds:

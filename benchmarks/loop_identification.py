@@ -35,6 +35,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from jsonl_rows import read_rows
 
 from belief.posterior import PosteriorConfig
 from belief.result import IdentificationResult
@@ -192,11 +193,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
     if args.summarize:
-        summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
+        summarize(read_rows(args.summarize))
         return 0
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
+    saved = read_rows(out)
     done = {(r["seed"], r["noise"], r["budget"], _floor(r)): r for r in saved}
     rows = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):

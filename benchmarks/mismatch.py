@@ -43,6 +43,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from jsonl_rows import read_rows
 
 from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, absorb_mismatch, held_scores
@@ -156,11 +157,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
     if args.summarize:
-        summarize([json.loads(line) for line in Path(args.summarize).read_text().splitlines() if line.strip()])
+        summarize(read_rows(args.summarize))
         return 0
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    saved = [json.loads(line) for line in out.read_text().splitlines() if line.strip()] if out.exists() else []
+    saved = read_rows(out)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     if any("floor" not in r for r in saved):       # rows saved before the floor was measured
         for r in saved:

@@ -8,18 +8,9 @@ least 80 % of them must hold θ* (the benchmark measures the rate over 20 proble
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
+import calibration_t6 as bench  # benchmarks/ (pyproject: pytest's pythonpath)
 import numpy as np
 import pytest
-
-_spec = importlib.util.spec_from_file_location(
-    "calibration_t6", Path(__file__).resolve().parents[2] / "benchmarks" / "calibration_t6.py")
-bench = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = bench
-_spec.loader.exec_module(bench)
 
 
 @pytest.mark.slow

@@ -11,21 +11,14 @@ model) this robot gets 8 of 12.
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
 import warnings
 from pathlib import Path
 
+import loop_identification as bench  # benchmarks/ (pyproject: pytest's pythonpath)
 import pytest
 
 from belief.errors import BudgetWarning
 from belief.posterior import PosteriorConfig
-
-_spec = importlib.util.spec_from_file_location(
-    "loop_identification", Path(__file__).resolve().parents[2] / "benchmarks" / "loop_identification.py")
-bench = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = bench
-_spec.loader.exec_module(bench)
 
 
 @pytest.mark.slow
