@@ -1,9 +1,8 @@
 """The report of a diagnosis: text tables, a JSON record, the final model and figures (matplotlib, Agg).
 
 ``model.json`` holds the final model (the mismatch stage's components, the effects measured at rest,
-then the effects found)
-and its θ̂ (physics.model_file), so that ``tensegrid identify --model DIR/model.json`` identifies
-with it.
+then the effects found) and its θ̂ (physics.model_file), so that ``tensegrid identify --model
+DIR/model.json`` identifies with it.
 
 Figures (written to the output directory):
 

@@ -21,9 +21,9 @@ class SensorBias(Effect):
 
     ``measured``: the bias the resting robot shows (:meth:`bind`): its contact nodes are seen at
     h = r + b, r the caps' contact radius (the nominal rod radius), so b = h − r
-    (physics.effects.world.contact_excess). The parameter then
-    keeps a box of ± ``width`` around it: a fit of the dynamics cannot sink the model's robot into
-    the floor (or lift it off) where the resting robot shows it is not."""
+    (physics.effects.world.contact_excess). The parameter then keeps a box of ± ``width`` around
+    it: a fit of the dynamics cannot sink the model's robot into the floor (or lift it off) where
+    the resting robot shows it is not."""
 
     name = "sensor_bias"
     description = "constant vertical offset of the observed positions"
