@@ -316,11 +316,22 @@ def details(rows: list[dict]) -> None:
               f"{c[other]['held_error']:.4f}); alternatives {r.get('alternatives', [])}")
 
 
+def print_rows(rows: list[dict]) -> None:
+    """One line per row: data set, seed, effects measured at rest, the top of the ranking, found, and
+    the held-out error of the first pass's re-tuned model (E before) and after the found effects."""
+    print(f"\n{'scenario':18s} {'seed':>4}  {'measured at rest':18s} {'top':22s} {'E before':>10} {'E after':>10}  found")
+    for r in rows:
+        after = f"{r['held_after']:10.4g}" if r.get("held_after") is not None else f"{'-':>10}"
+        print(f"{r['scenario']:18s} {r['seed']:4d}  {', '.join(r.get('measured', [])) or '-':18s} {str(r['top']):22s} "
+              f"{r['held_before']:10.4g} {after}  {', '.join(r['found']) or '-'}")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. first-seed + seeds - 1")
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
+    ap.add_argument("--rows", action="store_true", help="with --summarize: also one line per row (held-out errors)")
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--held-out", choices=sorted(HELD_OUT), default="actuation",
                     help="the held-out flop: another actuation (default) or only another heading")
@@ -337,6 +348,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.summarize:
         summarize(read_rows(args.summarize))
+        if args.rows:
+            print_rows(read_rows(args.summarize))
         return 0
     if args.scenarios is None:
         args.scenarios = (list(TESTBED_TRUTH) if args.source == "testbed"
