@@ -117,14 +117,9 @@ def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequen
                            windows=d.settings["windows"], effects=effects, n_workers=0)
 
 
-def _staged(d: Diagnosis) -> list[Effect]:
-    """The effects of the model of pass 1: the mismatch stage's and those measured at rest."""
-    return list(d.first_model)
-
-
 def _final(d: Diagnosis) -> tuple[list[Effect], np.ndarray]:
     """The final model's effects (the mismatch stage's, those measured at rest, then those found) and θ̂."""
-    effects: list[Effect] = _staged(d)
+    effects: list[Effect] = list(d.first_model)
     theta = d.passes[0].theta
     for p in d.passes:
         if p.added is not None and p.criticism.found is not None and p.theta_after is not None:
@@ -202,8 +197,8 @@ def _plot_signature(d: Diagnosis, trajectories: Sequence[xr.Dataset], path: Path
     if p.criticism.found is None:
         return False
     effect = effect_from_config(p.criticism.found.config)
-    base = _objective(d, trajectories, _staged(d))
-    with_it = base.with_effects([*_staged(d), effect])
+    base = _objective(d, trajectories, list(d.first_model))
+    with_it = base.with_effects([*d.first_model, effect])
     k = d.held_out[0] if d.held_out else 0
     theta_e = np.asarray(p.criticism.found.theta, float)
     x_b = base.predictions(theta_e[:base.space.dim])[k].values
@@ -243,7 +238,7 @@ def write_report(d: Diagnosis, trajectories: Sequence[xr.Dataset], out: str | Pa
     paths.append(out / "model.json")
     names = d.passes[-1].names_after if d.passes[-1].theta_after is not None else d.passes[-1].names
     write_model_file(paths[-1], effects, dict(zip(names, theta.tolist(), strict=True)))
-    before = residual_dataset(_objective(d, trajectories, _staged(d)), d.passes[0].theta)
+    before = residual_dataset(_objective(d, trajectories, list(d.first_model)), d.passes[0].theta)
     after = residual_dataset(_objective(d, trajectories, effects), theta)
     keys = d.held_out or [0]
     _plot_time(before, after, keys, out / "residual_time.png")
