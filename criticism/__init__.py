@@ -5,7 +5,8 @@ and whether adding that effect helps on held-out data.
   (rest, actuating, contact);
 - :mod:`criticism.search`: rank a catalog of effects (physics.effects) by the held-out error they
   explain beyond re-tuning the model's own parameters (evidence as a BIC difference), verdict
-  "found" or "unexplained";
+  "found" or "unexplained"; :mod:`criticism.screening` fits an effect's parameters with the model's
+  held, :mod:`criticism.replication` asks a found effect to carry over between trajectories;
 - :mod:`criticism.diagnose`: the loop identify -> criticize -> add the effect -> re-identify (after
   the mismatch stage and the effects the resting robot shows);
 - :mod:`criticism.report`: the diagnosis as text, JSON and figures; :mod:`criticism.cli`: the
@@ -20,14 +21,16 @@ from __future__ import annotations
 
 from criticism.diagnose import DiagnoseConfig, Diagnosis, Pass, diagnose, retuned_at_bounds, shown_at_rest, split_masks
 from criticism.errors import CriticismError
+from criticism.replication import replication_gains
 from criticism.report import diagnosis_record, diagnosis_text, write_report
 from criticism.residuals import PHASES, PhaseRule, phases, residual_dataset, residual_summary
-from criticism.search import Candidate, Criticism, CriticismConfig, criticize, fit_effect, polish
+from criticism.screening import fit_effect
+from criticism.search import Candidate, Criticism, CriticismConfig, criticize, polish
 
 __all__ = [
     "CriticismError",
     "DiagnoseConfig", "Diagnosis", "Pass", "diagnose", "retuned_at_bounds", "shown_at_rest", "split_masks",
-    "CriticismConfig", "Candidate", "Criticism", "criticize", "fit_effect", "polish",
+    "CriticismConfig", "Candidate", "Criticism", "criticize", "fit_effect", "polish", "replication_gains",
     "PHASES", "PhaseRule", "phases", "residual_dataset", "residual_summary",
     "diagnosis_text", "diagnosis_record", "write_report",
 ]

@@ -36,8 +36,10 @@ segments into *fit* segments F and *held-out* segments H:
    evidence, the two best are refined together, and each one's *conditional* evidence is scored: the
    pair against the model with the other one only (same formula). If both reach
    ``min_evidence`` and the pair explains ``min_fraction`` of the held-out error, the first of
-   the two is found (the next pass looks for the second). Otherwise **unexplained**, with where
-   the residual concentrates (criticism.residuals).
+   the two is found (the next pass looks for the second). Either way the effect must also
+   *replicate* (criticism.replication): fitted without each fit trajectory, it must not make that
+   trajectory worse (``min_replication``), as a generic freedom that absorbs model error does.
+   Otherwise **unexplained**, with where the residual concentrates (criticism.residuals).
    When several effects would each be found (a sensor bias and a larger end-cap radius both
    lift the resting robot), they are *contenders* (:func:`_contest`): all are scored with the
    same effective counts K̄_F, K̄_H (their mean), so that a difference of evidence between two
@@ -59,11 +61,13 @@ from belief import least_squares
 from belief.least_squares import LeastSquaresConfig, LocalFit
 from belief.noise import effective_size
 from criticism.errors import CriticismError
+from criticism.replication import replication_gains
+from criticism.screening import effect_start, fit_effect
 from physics.effect_objective import EffectObjective
 from physics.effects import Effect, effect_from_config
-from physics.objective import BatchResult, Objective
+from physics.objective import Objective
 
-__all__ = ["CriticismConfig", "Candidate", "Criticism", "VERDICTS", "criticize", "fit_effect", "polish"]
+__all__ = ["CriticismConfig", "Candidate", "Criticism", "VERDICTS", "criticize", "polish"]
 
 VERDICTS = ("found", "unexplained")
 
@@ -75,7 +79,9 @@ class CriticismConfig:
     an effect must reach to be found; joint: how many of the best screened effects are refined
     jointly with the model's parameters (0: none); tie: an evidence difference below which two
     effects are indistinguishable by evidence (6: "strong" on Kass and Raftery's scale); local:
-    the least-squares refinement of the re-tuning and of the joint fits."""
+    the least-squares refinement of the re-tuning and of the joint fits; min_replication: the
+    gain on each fit trajectory the effect must reach when fitted on the others
+    (criticism.replication; None: no check)."""
 
     grid: int = 7
     refine: int = 5
@@ -84,6 +90,7 @@ class CriticismConfig:
     joint: int = 3
     tie: float = 6.0
     local: LeastSquaresConfig = field(default_factory=LeastSquaresConfig)
+    min_replication: float | None = 0.0
 
     def __post_init__(self) -> None:
         if self.grid < 3 or self.refine < 3:
@@ -91,6 +98,9 @@ class CriticismConfig:
                                  f"{self.refine}.")
         if not (self.min_evidence >= 0 and 0 <= self.min_fraction < 1 and self.tie >= 0):
             raise CriticismError("CriticismConfig needs min_evidence >= 0, min_fraction in [0, 1) and tie >= 0.")
+        if self.min_replication is not None and not self.min_replication < 1:
+            raise CriticismError(f"CriticismConfig.min_replication is a held-out gain below 1 (or None: no check), "
+                                 f"got {self.min_replication}.")
 
 
 @dataclass(frozen=True)
@@ -132,6 +142,7 @@ class Criticism:
     pair: dict[str, Any] | None = None    # the two best refined together (module docstring, step 3)
     alternatives: list[str] = field(default_factory=list)   # effects the evidence cannot tell from the found one
     contest: dict[str, Any] | None = None  # the contenders and their common effective counts (:func:`_contest`)
+    replication: dict[str, Any] | None = None   # {"effect", "gains"} of the top effect (criticism.replication)
 
     def table(self) -> str:
         """The ranking as text: effect, evidence above the floor, explained fraction, fitted size."""
@@ -146,6 +157,11 @@ class Criticism:
                          f"K_F = {self.contest['n_fit']:.1f}, K_H = {self.contest['n_held']:.1f}")
         if self.alternatives:
             lines.append(f"      indistinguishable by evidence from the found effect: {', '.join(self.alternatives)}")
+        if self.replication is not None and self.replication["gains"]:
+            gains = ", ".join(f"{g} {v:+.1%}" for g, v in self.replication["gains"].items())
+            verdict = "" if self.replication["replicated"] else " -> does not replicate"
+            lines.append(f"      {self.replication['effect']} fitted without each fit trajectory, its gain there: "
+                         f"{gains}{verdict}")
         if self.pair is not None:
             a, b = self.pair["effects"]
             given = self.pair["given"]
@@ -159,52 +175,11 @@ class Criticism:
                 "floor": asdict(self.floor), "ranking": [asdict(c) for c in self.ranking],
                 "base_fit": self.base_fit, "base_held": self.base_held, "n_eff_fit": self.n_eff_fit,
                 "n_eff_held": self.n_eff_held, "structure": self.structure, "pair": self.pair,
-                "alternatives": self.alternatives, "contest": self.contest}
+                "alternatives": self.alternatives, "contest": self.contest, "replication": self.replication}
 
 
 def _values(values: dict[str, float]) -> str:
     return ", ".join(f"{k}={v:.4g}" for k, v in values.items())
-
-
-def _scores(result: BatchResult, mask: np.ndarray) -> np.ndarray:
-    """Σ parts over ``mask`` per row, inf where the evaluation failed."""
-    ok = np.array([s == "ok" for s in result.status])
-    return np.where(ok, np.nan_to_num(result.parts[:, mask], nan=0.0).sum(axis=1), np.inf)
-
-
-def fit_effect(objective: Objective, theta: np.ndarray, indices: Sequence[int], fit: np.ndarray,
-               config: CriticismConfig = CriticismConfig()) -> tuple[np.ndarray, np.ndarray]:
-    """Fit the parameters ``indices`` of θ (D,) on the segments ``fit`` (S,) bool, the others held:
-    per parameter a grid over its box (plus its current value), then a finer grid around the
-    best. Returns (θ̂ (D,), parts (S,) at θ̂); parts are inf when every value failed."""
-    theta = np.array(theta, dtype=float)
-    lower, upper = objective.space.lower, objective.space.upper
-    parts = np.full(len(objective.segments), np.inf)
-    for rnd in ("grid", "refine"):
-        for j in indices:
-            step = (upper[j] - lower[j]) / (config.grid - 1)
-            if rnd == "grid":
-                values = np.unique(np.r_[np.linspace(lower[j], upper[j], config.grid), theta[j]])
-            else:
-                values = np.linspace(max(lower[j], theta[j] - step), min(upper[j], theta[j] + step), config.refine)
-            rows = np.repeat(theta[None], len(values), axis=0)
-            rows[:, j] = values
-            result = objective.evaluate_batch(rows)
-            score = _scores(result, fit)
-            if np.isfinite(score).any():
-                k = int(np.argmin(score))
-                theta[j], parts = values[k], np.asarray(result.parts[k], float)
-    return theta, parts
-
-
-def _effect_theta(objective: EffectObjective, theta: np.ndarray,
-                  effect: Effect) -> tuple[EffectObjective, np.ndarray, list[int]]:
-    """The objective with ``effect`` added, θ extended by the effect's starting values (read from the
-    data where the effect can, Effect.start), and their indices."""
-    extended = objective.with_effects(tuple(objective.effects) + (effect,))
-    values = effect.start(objective.trajectories)
-    start = [values[p.name] for p in effect.parameters()]
-    return extended, np.r_[theta, start], list(range(len(theta), len(theta) + len(start)))
 
 
 def _candidate(name: str, kind: str, values: dict[str, float], parts: np.ndarray, fit: np.ndarray, held: np.ndarray,
@@ -244,8 +219,8 @@ def polish(objective: Objective, theta: np.ndarray, fit: np.ndarray, config: Cri
 def _screen(objective: EffectObjective, theta: np.ndarray, parts: np.ndarray, effect: Effect, fit: np.ndarray,
             held: np.ndarray, config: CriticismConfig) -> Candidate:
     """The effect's parameters fitted on F with θ̃ held, scored against θ̃."""
-    extended, start, indices = _effect_theta(objective, theta, effect)
-    fitted, eparts = fit_effect(extended, start, indices, fit, config)
+    extended, start, indices = effect_start(objective, theta, effect)
+    fitted, eparts = fit_effect(extended, start, indices, fit, grid=config.grid, refine=config.refine)
     values = {extended.space.names[j]: float(fitted[j]) for j in indices}
     k_fit, k_held = (_sizes(extended.residuals(fitted), fit, held) if np.isfinite(eparts).all()
                      else (math.nan, math.nan))
@@ -338,21 +313,36 @@ def _order(ranking: list[Candidate], config: CriticismConfig) -> list[Candidate]
     return close + [c for c in ranking if c not in close]
 
 
+def _replicates(objective: EffectObjective, crit: Criticism, fit: np.ndarray, config: CriticismConfig) -> bool:
+    """Whether the top effect replicates across the fit trajectories (criticism.replication); records
+    its gains in crit.replication. True when the check is off or has fewer than two groups."""
+    if config.min_replication is None:
+        return True
+    top = crit.ranking[0]
+    gains = replication_gains(objective, crit.theta, effect_from_config(top.config), fit, grid=config.grid,
+                              refine=config.refine)
+    replicated = all(g >= config.min_replication for g in gains.values())
+    crit.replication = {"effect": top.name, "gains": gains, "replicated": replicated}
+    return replicated
+
+
 def _verdict(objective: EffectObjective, crit: Criticism, fit: np.ndarray, held: np.ndarray,
              config: CriticismConfig) -> Criticism:
-    """Set crit.verdict and crit.found (module docstring, step 3), trying the pair when no single effect suffices."""
+    """Set crit.verdict and crit.found (module docstring, step 3), trying the pair when no single
+    effect suffices; a top effect with positive evidence must also replicate to be found."""
     ranking = crit.ranking
-    if not ranking:
+    if not ranking or not ranking[0].evidence > 0:
         return crit
     top = ranking[0]
     if _passes(top, config):
-        crit.verdict, crit.found = "found", top
-        best = max(c.evidence for c in ranking)
-        crit.alternatives = [c.name for c in ranking[1:] if c.evidence >= best - config.tie]
-    elif len(ranking) > 1 and top.evidence > 0 and all(c.stage == "joint" for c in ranking[:2]):
+        if _replicates(objective, crit, fit, config):
+            crit.verdict, crit.found = "found", top
+            best = max(c.evidence for c in ranking)
+            crit.alternatives = [c.name for c in ranking[1:] if c.evidence >= best - config.tie]
+    elif len(ranking) > 1 and all(c.stage == "joint" for c in ranking[:2]):
         crit.pair = _pair(objective, ranking[0], ranking[1], fit, held, (crit.base_fit, crit.base_held), config)
         if (crit.pair is not None and min(crit.pair["given"].values()) >= config.min_evidence
-                and crit.pair["explained"] >= config.min_fraction):
+                and crit.pair["explained"] >= config.min_fraction and _replicates(objective, crit, fit, config)):
             crit.verdict, crit.found = "found", top
     return crit
 

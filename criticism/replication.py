@@ -1,0 +1,60 @@
+"""Replication across trajectories: an effect the data carry, fitted without a trajectory, still
+predicts that trajectory better.
+
+The held-out score of criticism.search is one split: fit on F, score on H. Under model error
+(another engine, a real robot) an extra freedom can absorb part of what the model lacks on F and
+H alike without being the physics the data carry: air drag takes up part of a foreign engine's
+different damping. Such a freedom's size follows each trajectory's own mismatch, not a cause
+common to all, so it does not carry over from one trajectory to another. Replication asks it to:
+
+    for each fit group g (the fit trajectories; the fit windows when only one trajectory is fit):
+        η̂₋g   = screening fit of η on F ∖ g, θ̃ held          (criticism.screening)
+        gain_g = 1 - E_g(θ̃, η̂₋g) / E_g(θ̃)
+
+An effect is found only when every gain_g ≥ CriticismConfig.min_replication (default 0: fitted on
+the others, the effect never makes a trajectory worse). The check needs two fit groups; with
+fewer it is skipped (no gains).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from criticism.screening import effect_start, fit_effect
+from physics.effect_objective import EffectObjective
+from physics.effects import Effect
+
+__all__ = ["fit_groups", "replication_gains"]
+
+
+def fit_groups(segments: Sequence[str], fit: np.ndarray) -> dict[str, np.ndarray]:
+    """Masks (S,) of the fit groups: one per fit trajectory (segment names "t{k}/w{j}"), or one per
+    fit window when only one trajectory is fit; {} when there are fewer than two."""
+    fit = np.asarray(fit, bool)
+    trajectory = np.array([s.split("/")[0] for s in segments])
+    names = list(dict.fromkeys(trajectory[fit].tolist()))
+    if len(names) >= 2:
+        return {n: fit & (trajectory == n) for n in names}
+    windows = np.flatnonzero(fit)
+    if len(windows) < 2:
+        return {}
+    return {segments[int(i)]: np.arange(len(segments)) == i for i in windows}
+
+
+def replication_gains(objective: EffectObjective, theta: np.ndarray, effect: Effect, fit: np.ndarray, *,
+                      grid: int = 7, refine: int = 5) -> dict[str, float]:
+    """gain_g (module docstring) of ``effect`` (not in ``objective``) for each fit group, with the
+    model's parameters held at θ̃ (D,); -inf where the effect's fit fails, {} with fewer than two groups."""
+    groups = fit_groups(objective.segments, fit)
+    if not groups:
+        return {}
+    base = np.asarray(objective.evaluate_parts(np.asarray(theta, float)), float)
+    extended, start, indices = effect_start(objective, np.asarray(theta, float), effect)
+    gains: dict[str, float] = {}
+    for name, group in groups.items():
+        _, parts = fit_effect(extended, start, indices, np.asarray(fit, bool) & ~group, grid=grid, refine=refine)
+        before, after = float(base[group].sum()), float(parts[group].sum())
+        gains[name] = (1.0 - after / before if before > 0 else 0.0) if math.isfinite(after) else -math.inf
+    return gains

@@ -1,0 +1,66 @@
+"""Replication across trajectories (criticism.replication): an effect every trajectory carries
+carries over from one to another; one whose size follows each trajectory does not, and is not found."""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from criticism.diagnose import split_masks
+from criticism.replication import fit_groups, replication_gains
+from criticism.search import CriticismConfig, criticize
+from physics import FlopController, TrajectoryObjective, simulate
+from physics.effects import ActuatorDelay, model_space
+
+#: The evidence bar off: these tests are about replication, on data with little of the model's own freedom in them.
+LENIENT = CriticismConfig(grid=5, refine=3, joint=1, min_evidence=0.0)
+
+
+def test_groups_are_the_fit_trajectories_or_else_the_fit_windows():
+    segments = ["t0/w0", "t0/w1", "t1/w0", "t1/w1", "t2/w0"]
+    fit = np.array([True, True, True, True, False])
+    groups = fit_groups(segments, fit)
+    assert list(groups) == ["t0", "t1"] and groups["t1"].tolist() == [False, False, True, True, False]
+    one = fit_groups(["t0/w0", "t0/w1", "t0/w2"], np.array([True, False, True]))
+    assert list(one) == ["t0/w0", "t0/w2"] and one["t0/w2"].tolist() == [False, False, True]
+    assert fit_groups(["t0/w0", "t1/w0"], np.array([True, False])) == {}
+
+
+def _delayed_flops(delays: list[float]) -> tuple[list, np.ndarray]:
+    """One flop per delay [s] (headings 0, 2.1, 4.2 rad), 1.2 s, 0.2 mm noise; the model's true θ (15,)."""
+    effect = ActuatorDelay()
+    space = model_space([effect])
+    data = []
+    for k, delay in enumerate(delays):
+        theta = space.as_array({**space.as_dict(None), "actuator_delay": delay}, check_bounds=False)
+        data.append(simulate(theta, controller=FlopController(2.1 * k), duration=1.2, effects=[effect], noise=0.0002,
+                             seed=k))
+    return data, theta[:15]
+
+
+@pytest.mark.slow
+def test_an_effect_every_trajectory_carries_replicates_and_one_that_varies_does_not():
+    data, theta = _delayed_flops([0.08, 0.08, 0.0])
+    objective = TrajectoryObjective(data[:2], horizon=25, loss="squared", n_workers=0)
+    fit = np.ones(len(objective.segments), bool)
+    gains = replication_gains(objective, theta, ActuatorDelay(), fit, grid=5, refine=3)
+    assert set(gains) == {"t0", "t1"} and min(gains.values()) > 0.5, gains
+    varying = TrajectoryObjective([data[0], data[2]], horizon=25, loss="squared", n_workers=0)
+    gains = replication_gains(varying, theta, ActuatorDelay(), fit, grid=5, refine=3)
+    assert min(gains.values()) < 0 and math.isfinite(min(gains.values())), gains
+
+
+@pytest.mark.slow
+def test_an_effect_that_does_not_replicate_is_not_found_though_it_helps_the_held_out_flop():
+    data, theta = _delayed_flops([0.14, 0.0, 0.14])      # the held-out flop (last) is delayed like the first
+    objective = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
+    fit, held = split_masks(objective.segments, [2])
+    unchecked = criticize(objective, theta, fit=fit, held=held, effects=[ActuatorDelay()],
+                          config=replace(LENIENT, min_replication=None), progress=False)
+    assert unchecked.verdict == "found" and unchecked.replication is None, unchecked.table()
+    crit = criticize(objective, theta, fit=fit, held=held, effects=[ActuatorDelay()], config=LENIENT, progress=False)
+    assert crit.verdict == "unexplained" and crit.found is None, crit.table()
+    assert crit.replication is not None and not crit.replication["replicated"]
+    assert "does not replicate" in crit.table()
