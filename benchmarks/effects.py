@@ -194,6 +194,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
            "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None, "n_eff_fit": first.n_eff_fit,
            "found": d.found, "measured": [e.name for e in d.measured], "alternatives": first.alternatives,
+           "replication": first.replication,
            "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error}
                           for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],
