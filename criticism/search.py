@@ -329,20 +329,22 @@ def _replicates(objective: EffectObjective, crit: Criticism, fit: np.ndarray, co
 def _verdict(objective: EffectObjective, crit: Criticism, fit: np.ndarray, held: np.ndarray,
              config: CriticismConfig) -> Criticism:
     """Set crit.verdict and crit.found (module docstring, step 3), trying the pair when no single
-    effect suffices; a top effect with positive evidence must also replicate to be found."""
+    effect suffices; the top effect's replication is measured whenever its evidence is positive
+    (the table reports it), and it must replicate to be found."""
     ranking = crit.ranking
     if not ranking or not ranking[0].evidence > 0:
         return crit
     top = ranking[0]
+    replicated = _replicates(objective, crit, fit, config)
     if _passes(top, config):
-        if _replicates(objective, crit, fit, config):
+        if replicated:
             crit.verdict, crit.found = "found", top
             best = max(c.evidence for c in ranking)
             crit.alternatives = [c.name for c in ranking[1:] if c.evidence >= best - config.tie]
     elif len(ranking) > 1 and all(c.stage == "joint" for c in ranking[:2]):
         crit.pair = _pair(objective, ranking[0], ranking[1], fit, held, (crit.base_fit, crit.base_held), config)
         if (crit.pair is not None and min(crit.pair["given"].values()) >= config.min_evidence
-                and crit.pair["explained"] >= config.min_fraction and _replicates(objective, crit, fit, config)):
+                and crit.pair["explained"] >= config.min_fraction and replicated):
             crit.verdict, crit.found = "found", top
     return crit
 
