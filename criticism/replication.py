@@ -7,13 +7,13 @@ H alike without being the physics the data carry: air drag takes up part of a fo
 different damping. Such a freedom's size follows each trajectory's own mismatch, not a cause
 common to all, so it does not carry over from one trajectory to another. Replication asks it to:
 
-    for each fit group g (the fit trajectories; the fit windows when only one trajectory is fit):
+    for each fit trajectory g:
         η̂₋g   = screening fit of η on F ∖ g, θ̃ held          (criticism.screening)
         gain_g = 1 - E_g(θ̃, η̂₋g) / E_g(θ̃)
 
 An effect is found only when every gain_g ≥ CriticismConfig.min_replication (default 0: fitted on
-the others, the effect never makes a trajectory worse). The check needs two fit groups; with
-fewer it is skipped (no gains).
+the others, the effect never makes a trajectory worse). The check needs two fit trajectories;
+with fewer it is skipped (no gains).
 """
 from __future__ import annotations
 
@@ -30,23 +30,19 @@ __all__ = ["fit_groups", "replication_gains"]
 
 
 def fit_groups(segments: Sequence[str], fit: np.ndarray) -> dict[str, np.ndarray]:
-    """Masks (S,) of the fit groups: one per fit trajectory (segment names "t{k}/w{j}"), or one per
-    fit window when only one trajectory is fit; {} when there are fewer than two."""
+    """Masks (S,) of the fit trajectories (segment names "t{k}/w{j}"); {} when fewer than two are fit.
+    Windows of one trajectory are no groups: a window need not carry the effect at all (a delay
+    shows only while the actuators move)."""
     fit = np.asarray(fit, bool)
     trajectory = np.array([s.split("/")[0] for s in segments])
     names = list(dict.fromkeys(trajectory[fit].tolist()))
-    if len(names) >= 2:
-        return {n: fit & (trajectory == n) for n in names}
-    windows = np.flatnonzero(fit)
-    if len(windows) < 2:
-        return {}
-    return {segments[int(i)]: np.arange(len(segments)) == i for i in windows}
+    return {n: fit & (trajectory == n) for n in names} if len(names) >= 2 else {}
 
 
 def replication_gains(objective: EffectObjective, theta: np.ndarray, effect: Effect, fit: np.ndarray, *,
                       grid: int = 7, refine: int = 5) -> dict[str, float]:
-    """gain_g (module docstring) of ``effect`` (not in ``objective``) for each fit group, with the
-    model's parameters held at θ̃ (D,); -inf where the effect's fit fails, {} with fewer than two groups."""
+    """gain_g (module docstring) of ``effect`` (not in ``objective``) for each fit trajectory, with
+    the model's parameters held at θ̃ (D,); -inf where the effect's fit fails, {} with fewer than two."""
     groups = fit_groups(objective.segments, fit)
     if not groups:
         return {}
