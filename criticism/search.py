@@ -38,7 +38,8 @@ segments into *fit* segments F and *held-out* segments H:
    ``min_evidence`` and the pair explains ``min_fraction`` of the held-out error, the first of
    the two is found (the next pass looks for the second). Either way the effect must also
    *replicate* (criticism.replication): fitted without each fit trajectory, it must not make that
-   trajectory worse (``min_replication``), as a generic freedom that absorbs model error does.
+   trajectory worse (``min_replication``), which a freedom that absorbs each trajectory's own
+   model error does.
    Otherwise **unexplained**, with where the residual concentrates (criticism.residuals).
    When several effects would each be found (a sensor bias and a larger end-cap radius both
    lift the resting robot), they are *contenders* (:func:`_contest`): all are scored with the
@@ -142,7 +143,7 @@ class Criticism:
     pair: dict[str, Any] | None = None    # the two best refined together (module docstring, step 3)
     alternatives: list[str] = field(default_factory=list)   # effects the evidence cannot tell from the found one
     contest: dict[str, Any] | None = None  # the contenders and their common effective counts (:func:`_contest`)
-    replication: dict[str, Any] | None = None   # {"effect", "gains"} of the top effect (criticism.replication)
+    replication: dict[str, Any] | None = None   # {"effect", "gains", "replicated"} of the top effect
 
     def table(self) -> str:
         """The ranking as text: effect, evidence above the floor, explained fraction, fitted size."""
