@@ -2,10 +2,10 @@
 predicts that trajectory better.
 
 The held-out score of criticism.search is one split: fit on F, score on H. Under model error
-(another engine, a real robot) an extra freedom can absorb part of what the model lacks on F and
-H alike without being the physics the data carry: air drag takes up part of a foreign engine's
-different damping. Such a freedom's size follows each trajectory's own mismatch, not a cause
-common to all, so it does not carry over from one trajectory to another. Replication asks it to:
+(another engine, a real robot) an extra freedom can absorb part of what the model lacks without
+being the physics the data carry. When its size follows each trajectory's own mismatch (on the
+foreign robot's flat floor a slope fitted to each flop alone tilts by up to 4°), it does not
+carry over from one trajectory to another. Replication asks it to:
 
     for each fit trajectory g:
         η̂₋g   = screening fit of η on F ∖ g, θ̃ held          (criticism.screening)
@@ -13,7 +13,8 @@ common to all, so it does not carry over from one trajectory to another. Replica
 
 An effect is found only when every gain_g ≥ CriticismConfig.min_replication (default 0: fitted on
 the others, the effect never makes a trajectory worse). The check needs two fit trajectories;
-with fewer it is skipped (no gains).
+with fewer it is skipped (no gains). A freedom that absorbs a mismatch all trajectories share
+replicates like a cause, and this check cannot tell them apart.
 """
 from __future__ import annotations
 
