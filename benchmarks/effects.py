@@ -333,11 +333,24 @@ def print_rows(rows: list[dict]) -> None:
               f"{r['top_explained'] or math.nan:8.1%}  {replication:22s} {', '.join(r['found']) or '-'}")
 
 
+def _key(row: dict) -> tuple:
+    """A run's identity: data set, seed and protocol (held-out flop, budget, flops version)."""
+    return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"), row.get("flops_version", 1))
+
+
+def latest_rows(rows: list[dict]) -> list[dict]:
+    """Of rows with the same :func:`_key`, the last one, in the order of their last appearance."""
+    return list({_key(r): r for r in rows}.values())
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. first-seed + seeds - 1")
-    ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
+    ap.add_argument("--summarize", nargs="+", default=None, metavar="JSONL",
+                    help="only print the table of saved rows (of several files: their rows in order)")
+    ap.add_argument("--latest", action="store_true", help="with --summarize: only the latest row of each "
+                    "data set, seed and protocol (a later file's row replaces an earlier one)")
     ap.add_argument("--rows", action="store_true", help="with --summarize: also one line per row (held-out errors)")
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--held-out", choices=sorted(HELD_OUT), default="actuation",
@@ -354,9 +367,11 @@ def main(argv: list[str] | None = None) -> int:
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     args = ap.parse_args(argv)
     if args.summarize:
-        summarize(read_rows(args.summarize))
+        saved = [r for path in args.summarize for r in read_rows(path)]
+        saved = latest_rows(saved) if args.latest else saved
+        summarize(saved)
         if args.rows:
-            print_rows(read_rows(args.summarize))
+            print_rows(saved)
         return 0
     if args.scenarios is None:
         args.scenarios = (list(TESTBED_TRUTH) if args.source == "testbed"
@@ -366,8 +381,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out or f"benchmarks/results/effects-{args.held_out}{'-mismatch' if args.mismatch else ''}.jsonl")
     out.parent.mkdir(parents=True, exist_ok=True)
     saved = read_rows(out)
-    done = {(r["scenario"], r["seed"], r.get("held_out", "heading"), r.get("budget"), r.get("flops_version", 1))
-            for r in saved}
+    done = {_key(r) for r in saved}
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds
             and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget
