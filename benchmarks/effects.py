@@ -49,8 +49,8 @@ Runs go seed by seed over the scenarios; a (scenario, seed, --held-out, --budget
 from __future__ import annotations
 
 import argparse
-import math
 import json
+import math
 import sys
 import time
 from pathlib import Path
