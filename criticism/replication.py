@@ -3,9 +3,9 @@ predicts that trajectory better.
 
 The held-out score of criticism.search is one split: fit on F, score on H. Under model error
 (another engine, a real robot) an extra freedom can absorb part of what the model lacks without
-being the physics the data carry. When its size follows each trajectory's own mismatch (on the
-foreign robot's flat floor a slope fitted to each flop alone tilts by up to 4°), it does not
-carry over from one trajectory to another. Replication asks it to:
+being the physics the data carry. When its size follows each trajectory's own mismatch (a
+floor tilt fitted to each flop of another engine's robot on a flat floor), it does not carry
+over from one trajectory to another. Replication asks it to:
 
     for each fit trajectory g:
         η̂₋g   = screening fit of η on F ∖ g, θ̃ held          (criticism.screening)
