@@ -14,7 +14,8 @@
     6  if any parameter is (weakly) identified: the Jacobian over all parameters at the best
        evaluated θ and one Gauss-Newton step (D + 4 evaluations); a much better fit outside a
        parameter's interval, or a local std wider than P's, withdraws its verdict (the "local
-       refit" and "local width" rules of belief.verdicts)
+       refit" and "local width" rules of belief.verdicts); the local std also spreads the best
+       cell's mass in the marginals (belief.spread), so a P on one cell still gets the data's width
     7  parameters the data narrow whose fitted θ (the step's θ′, else the best evaluated θ) sits at
        a bound of the box are not identified and listed in attrs["at_bounds"] (the "at bound"
        rule, belief.bounds)
@@ -41,9 +42,10 @@ from belief.bounds import AtBound, at_bounds
 from belief.errors import BeliefError, BudgetWarning
 from belief.grid import CandidateSet
 from belief.journal import Record
-from belief.least_squares import gauss_newton_step
+from belief.least_squares import LocalStep, gauss_newton_step
 from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
+from belief.spread import CellSpread
 from belief.surrogate import GPSurrogate, SurrogateConfig
 from belief.verdicts import (
     VerdictConfig,
@@ -135,11 +137,11 @@ def _segment_marginals(records: Sequence[Record], grid: CandidateSet, theta_cell
     return out
 
 
-def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], marg: xr.Dataset, noise: NoiseLevel,
-               cfg: VerdictConfig) -> tuple[dict[str, str], np.ndarray | None, dict[str, Any]]:
-    """(conflicts, local ratio (D,) or None, info) of the "local refit" and "local width" rules
-    (belief.verdicts) from one Gauss-Newton
-    step of all parameters from the best evaluated θ.
+def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], noise: NoiseLevel
+               ) -> tuple[LocalStep | None, np.ndarray | None, dict[str, Any]]:
+    """(step, local std (D,) or None, info) of one Gauss-Newton step of all parameters from the best
+    evaluated θ, for the "local refit" and "local width" rules (belief.verdicts) and the best
+    cell's spread (belief.spread).
 
     ``info`` goes to the Belief's attrs["local_fit"]: θ′, E(θ′), E(θ̂), evaluations and the local
     std, or why the step was not taken (a diverged simulation is reported there, not hidden).
@@ -147,18 +149,16 @@ def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], m
     try:
         step = gauss_newton_step(objective, np.asarray(best_theta, dtype=float))
     except NoResidualsError:
-        return {}, None, {"skipped": "the objective gives no residuals"}
+        return None, None, {"skipped": "the objective gives no residuals"}
     except (BeliefError, PhysicsError) as exc:
-        return {}, None, {"skipped": str(exc)}
+        return None, None, {"skipped": str(exc)}
     info: dict[str, Any] = {"theta": [float(v) for v in step.theta], "error": step.error,
                             "start_error": step.start_error, "evaluations": step.evaluations}
-    ratio = None
+    std = None
     if noise.total is not None:
         std = step.laplace_std(noise.total)
         info["std"] = [float(v) for v in std]
-        ratio = std / np.maximum(step.width / np.sqrt(12.0), 1e-300)
-    return refit_conflicts(marg, step.theta, step.error, step.start_error, noise_var=noise.total,
-                           nats=cfg.refit_nats, fraction=cfg.refit_fraction), ratio, info
+    return step, std, info
 
 
 def _pinned(space: ParameterSpace, best_theta: np.ndarray | Sequence[float], local: dict[str, Any], marg: xr.Dataset,
@@ -214,8 +214,17 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     local: dict[str, Any] = {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"}
     extra: dict[str, str] = {}
     ratio: np.ndarray | None = None
+    spread: CellSpread | None = None
     if vcfg.refit and any(v != "not identified" for v in verdicts):
-        extra, ratio, local = _local_fit(objective, best.theta, marg, noise, vcfg)
+        step, std, local = _local_fit(objective, best.theta, noise)
+        if std is not None and step is not None:
+            ratio = std / np.maximum(step.width / np.sqrt(12.0), 1e-300)
+            spread = CellSpread(best.cell, tuple(std))
+            marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio,
+                             spread=spread)
+        if step is not None:
+            extra = refit_conflicts(marg, step.theta, step.error, step.start_error, noise_var=noise.total,
+                                    nats=vcfg.refit_nats, fraction=vcfg.refit_fraction)
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, config=vcfg, local_ratio=ratio,
                                conflicts={**extra, **conflicts,
@@ -232,4 +241,4 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
              "at_bounds": [a.as_dict() for a in at_bound], "bound_tolerance": vcfg.bound_tolerance,
              "error_floor": P.attrs.get("error_floor"), "best_cell_mass": best_mass, "trust": trust}
     return Belief(P, theta_cells, space, decoder_config=decoder.config(), grid_config=grid.config(),
-                  verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level, grid=grid)
+                  verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level, grid=grid, spread=spread)

@@ -14,10 +14,13 @@ A Belief holds, for the n cells of a latent grid (``Grid`` or ``SobolCandidates`
   that decided it (:data:`belief.verdicts.RULES`), read back as :attr:`Belief.rules`;
 - ``attrs``: free-form JSON-able provenance (noise rule, σ², warnings, ...); ``attrs["at_bounds"]``
   lists the parameters pinned at a bound of the box after fitting (:mod:`belief.bounds`, the "at
-  bound" verdict rule), read back as :attr:`Belief.at_bounds` and shown in :meth:`Belief.summary`.
+  bound" verdict rule), read back as :attr:`Belief.at_bounds` and shown in :meth:`Belief.summary`;
+- ``spread``: optionally the local std of one cell (:class:`belief.spread.CellSpread`, the best
+  evaluated cell's Laplace width): its mass counts as a truncated normal in the marginals, so an
+  interval is never narrower than the data's local width when one cell holds most of P.
 
 It is used without re-running anything: :meth:`sample` draws θ with probability P (a draw is a
-cell's decoded centre, so draws are discrete on the n cells), :meth:`marginals` gives per-parameter
+cell's decoded centre, so draws are discrete on the n cells, spread or not), :meth:`marginals` gives per-parameter
 mean, std, credible interval, MAP, prior moments and verdicts (numbers from
 :func:`belief.posterior.marginals`). It saves to one netCDF file (:meth:`save`, :meth:`load`,
 format attribute ``"tensegrid.belief/1"``) or into a group of another file (:meth:`to_dataset`,
@@ -40,6 +43,7 @@ from belief.bounds import AT_BOUND_TOLERANCE, AtBound, entries_from_records, ina
 from belief.errors import BeliefError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.posterior import entropy, marginals
+from belief.spread import CellSpread
 from belief.verdicts import VERDICTS, default_verdicts, rule_of
 from embeddings import Decoder, decoder_from_config
 from physics.parameters import Parameter, ParameterSpace
@@ -134,14 +138,15 @@ class Belief:
     ``decoder.config()`` and ``grid.config()``; ``verdicts``/``reasons``: one per parameter, both or
     neither (default from P alone, :func:`default_verdicts`); ``attrs``: JSON-able dict;
     ``level``: credible level of intervals and summaries; ``grid``: the grid of ``grid_config`` when
-    the caller has it (else it is rebuilt from the config). Raises :class:`BeliefError`.
+    the caller has it (else it is rebuilt from the config); ``spread``: the local std of one cell
+    (belief.spread). Raises :class:`BeliefError`.
     """
 
     def __init__(self, P: xr.DataArray | np.ndarray, theta: np.ndarray, space: ParameterSpace, *,
                  decoder_config: Mapping[str, Any], grid_config: Mapping[str, Any],
                  verdicts: Sequence[str] | None = None, reasons: Sequence[str] | None = None,
                  attrs: Mapping[str, Any] | None = None, level: float = 0.9,
-                 grid: CandidateSet | None = None) -> None:
+                 grid: CandidateSet | None = None, spread: CellSpread | None = None) -> None:
         if not isinstance(space, ParameterSpace):
             raise BeliefError(f"space must be a physics ParameterSpace, got {type(space).__name__}.")
         if not isinstance(decoder_config, Mapping) or not isinstance(decoder_config.get("kind"), str):
@@ -165,6 +170,11 @@ class Belief:
                               f"decoder.decode(grid.points)), got shape {th.shape}.")
         th.setflags(write=False)
         self.theta, self.space, self.level = th, space, float(level)
+        if spread is not None and (not isinstance(spread, CellSpread) or spread.cell >= self.P.size
+                                   or len(spread.std) != space.dim):
+            raise BeliefError(f"spread must be a CellSpread of one of the {self.P.size} cells with {space.dim} stds, "
+                              f"got {_short(spread)}.")
+        self.spread = spread
         self.verdict, self.reason = _check_verdicts(verdicts, reasons, lambda: self._numbers(self.level), space.dim)
         entries_from_records(self.attrs.get("at_bounds"), space.names)    # fails early on corrupt records
 
@@ -197,7 +207,7 @@ class Belief:
         return int(self.P.size)
 
     def _numbers(self, level: float) -> xr.Dataset:
-        return marginals(self.P, self.theta, self.space, level=level).drop_vars("identified")
+        return marginals(self.P, self.theta, self.space, level=level, spread=self.spread).drop_vars("identified")
 
     def marginals(self, level: float | None = None) -> xr.Dataset:
         """Per parameter (Dataset over ``parameter``, coordinate ``unit``): ``mean``, ``std``, ``lower``,
@@ -294,7 +304,9 @@ class Belief:
                 row += f"{tr[j]:>10.5g}{' ' if lo <= tr[j] <= hi else '!'}"
             side = m["at_bound"].values[j]
             lines.append(row + f"  {self.verdict[j]}" + (f" (at {side} bound)" if side else ""))
-        lines.append(f"{self.level:.0%} credible intervals; verdict reasons: Belief.verdicts"
+        lines.append(f"{self.level:.0%} credible intervals"
+                     + (" (the best evaluated cell spread by its local width)" if self.spread is not None else "")
+                     + "; verdict reasons: Belief.verdicts"
                      + ("; '!' marks a truth outside the interval" if tr is not None else ""))
         block = inadequacy_text(self.at_bounds, tolerance=self.attrs.get("bound_tolerance", AT_BOUND_TOLERANCE))
         return "\n".join(lines + ([block] if block else []))
@@ -319,6 +331,8 @@ class Belief:
                     "P_attrs": json.dumps(self.P.attrs),
                     "decoder_config": json.dumps(self.decoder_config), "grid_config": json.dumps(self.grid_config),
                     "attrs": json.dumps(self.attrs)}
+        if self.spread is not None:
+            ds.attrs["spread"] = json.dumps(self.spread.as_dict())
         return ds
 
     @classmethod
@@ -336,11 +350,12 @@ class Belief:
             P = ds["P"].transpose(*json.loads(ds.attrs["P_dims"]))
             P.attrs = json.loads(ds.attrs["P_attrs"]) if "P_attrs" in ds.attrs else dict(ds["P"].attrs)
             configs = [json.loads(ds.attrs[k]) for k in ("decoder_config", "grid_config", "attrs")]
+            spread = CellSpread.from_dict(json.loads(ds.attrs["spread"])) if "spread" in ds.attrs else None
         except (ValueError, TypeError) as exc:
             raise BeliefError(f"the belief Dataset has a corrupt attribute ({exc}); re-save the belief.") from None
         return cls(P, ds["theta"].values, _space_from_dataset(ds), decoder_config=configs[0], grid_config=configs[1],
                    verdicts=[str(v) for v in ds["verdict"].values], reasons=[str(r) for r in ds["reason"].values],
-                   attrs=configs[2], level=float(ds.attrs["level"]))
+                   attrs=configs[2], level=float(ds.attrs["level"]), spread=spread)
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write to one netCDF4 file (xarray, engine netcdf4), overwriting ``path``."""

@@ -66,6 +66,7 @@ from scipy.special import log_ndtr, logsumexp
 
 from belief.errors import BeliefError
 from belief.noise import DEFAULT_DISCREPANCY, NOISE_RULES, iid_noise_var
+from belief.spread import CellSpread, spread_marginals
 
 if TYPE_CHECKING:
     from belief.grid import CandidateSet
@@ -328,6 +329,19 @@ def entropy(P: xr.DataArray) -> float:
     return float(-(p * np.log(p)).sum())
 
 
+def _cell_quantiles(p: np.ndarray, th: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray]:
+    """The (1-level)/2 and (1+level)/2 quantiles (D,) each of P (n,) over the cell values th (n, D)."""
+    lo_q, hi_q = 0.5 * (1 - level), 0.5 * (1 + level)
+    lower, upper = np.empty(th.shape[1]), np.empty(th.shape[1])
+    for j in range(th.shape[1]):
+        order = np.argsort(th[:, j], kind="stable")
+        cdf = np.cumsum(p[order])
+        cdf /= cdf[-1]
+        lower[j] = th[order[min(int(np.searchsorted(cdf, lo_q, side="left")), p.size - 1)], j]
+        upper[j] = th[order[min(int(np.searchsorted(cdf, hi_q, side="left")), p.size - 1)], j]
+    return lower, upper
+
+
 def marginals(
     P: xr.DataArray,
     theta: np.ndarray,
@@ -335,6 +349,7 @@ def marginals(
     *,
     level: float = 0.9,
     identified_ratio: float = 0.5,
+    spread: CellSpread | None = None,
 ) -> xr.Dataset:
     """Per-parameter summaries of P pushed through the decoder, in θ units.
 
@@ -346,7 +361,9 @@ def marginals(
     - ``map``: θ of the most probable cell; ``prior_mean``/``prior_std``: same under the prior;
     - ``reach`` = prior_std / ((upper_j - lower_j) / sqrt(12)): how much of the box the decoder spans;
     - ``identified`` = std < identified_ratio x prior_std (a uniform prior's std is width/sqrt(12),
-      so with ratio 0.5 the posterior must be at least twice as narrow as the prior).
+      so with ratio 0.5 the posterior must be at least twice as narrow as the prior);
+    - with ``spread`` (belief.spread), the spread cell's mass is its local truncated normal, not a
+      point: mean, std and the interval are the mixture's (map and prior moments unchanged).
 
     Returns an ``xarray.Dataset`` over dimension ``parameter`` (coordinate ``unit``).
     """
@@ -354,19 +371,14 @@ def marginals(
     th = np.asarray(theta, dtype=float)
     if th.ndim != 2 or th.shape[0] != p.size or th.shape[1] != space.dim:
         raise BeliefError(f"theta must have shape ({p.size}, {space.dim}), got {th.shape}.")
-    mean = p @ th
-    std = np.sqrt(np.maximum(p @ (th - mean) ** 2, 0.0))
     prior_mean = th.mean(axis=0)
     prior_std = th.std(axis=0)
-    lo_q, hi_q = 0.5 * (1 - level), 0.5 * (1 + level)
-    lower = np.empty(space.dim)
-    upper = np.empty(space.dim)
-    for j in range(space.dim):
-        order = np.argsort(th[:, j], kind="stable")
-        cdf = np.cumsum(p[order])
-        cdf /= cdf[-1]
-        lower[j] = th[order[min(int(np.searchsorted(cdf, lo_q, side="left")), p.size - 1)], j]
-        upper[j] = th[order[min(int(np.searchsorted(cdf, hi_q, side="left")), p.size - 1)], j]
+    if spread is not None:
+        mean, std, lower, upper = spread_marginals(p / p.sum(), th, spread, space.lower, space.upper, level)
+    else:
+        mean = p @ th
+        std = np.sqrt(np.maximum(p @ (th - mean) ** 2, 0.0))
+        lower, upper = _cell_quantiles(p, th, level)
     identified = std < identified_ratio * np.maximum(prior_std, 1e-300)
     coords = {"parameter": list(space.names), "unit": ("parameter", list(space.units))}
     dims = ("parameter",)
