@@ -29,10 +29,8 @@ string variables, so the round trip is exact.
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
-import typing
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -43,10 +41,11 @@ from belief.bounds import AT_BOUND_TOLERANCE, AtBound, entries_from_records, ina
 from belief.errors import BeliefError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.posterior import entropy, marginals
+from belief.serial import jsonable, short, space_from_dataset, space_variables
 from belief.spread import CellSpread
 from belief.verdicts import VERDICTS, default_verdicts, rule_of
 from embeddings import Decoder, decoder_from_config
-from physics.parameters import Parameter, ParameterSpace
+from physics.parameters import ParameterSpace
 
 __all__ = ["Belief", "FORMAT", "SUM_TOLERANCE", "default_verdicts"]
 
@@ -54,27 +53,6 @@ __all__ = ["Belief", "FORMAT", "SUM_TOLERANCE", "default_verdicts"]
 FORMAT = "tensegrid.belief/1"
 #: |sum(P) - 1| allowed by the constructor
 SUM_TOLERANCE = 1e-6
-#: Parameter fields stored under another variable name (``name`` and ``unit`` are coordinates)
-_FIELD_VARS = {"name": "parameter", "unit": "unit", "lower": "lower_bound", "upper": "upper_bound"}
-
-
-def _jsonable(value: Any, name: str) -> Any:
-    """``value`` as it comes back from JSON (numpy scalars and arrays become numbers and lists)."""
-    def default(v: Any) -> Any:
-        if isinstance(v, (np.ndarray, np.generic)):
-            return v.tolist()
-        raise TypeError(f"{type(v).__name__} is not JSON-able")
-
-    try:
-        return json.loads(json.dumps(value, default=default))
-    except (TypeError, ValueError) as exc:
-        raise BeliefError(f"{name} must be JSON-able (numbers, strings, lists, dicts with string keys), got "
-                          f"{_short(value)} ({exc}); convert the offending values first.") from None
-
-
-def _short(value: Any, limit: int = 80) -> str:
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def _check_p(P: xr.DataArray | np.ndarray, grid: CandidateSet) -> xr.DataArray:
@@ -107,7 +85,7 @@ def _check_p(P: xr.DataArray | np.ndarray, grid: CandidateSet) -> xr.DataArray:
         raise BeliefError(f"P must sum to 1 (within {SUM_TOLERANCE:g}), got {float(p.sum())!r}; normalize it with "
                           "P / P.sum().")
     out = grid.to_dataarray(p, name="P")
-    out.attrs = _jsonable(attrs, "P.attrs")
+    out.attrs = jsonable(attrs, "P.attrs")
     return out
 
 
@@ -121,8 +99,8 @@ def _check_verdicts(verdicts: Sequence[str] | None, reasons: Sequence[str] | Non
                           f"each per parameter) or neither (defaults from P alone).")
     v, r = list(verdicts), list(reasons)
     if isinstance(verdicts, str) or isinstance(reasons, str) or len(v) != dim or len(r) != dim:
-        raise BeliefError(f"give one verdict and one reason per parameter ({dim}), got {_short(verdicts)} and "
-                          f"{_short(reasons)}.")
+        raise BeliefError(f"give one verdict and one reason per parameter ({dim}), got {short(verdicts)} and "
+                          f"{short(reasons)}.")
     bad = sorted({str(x) for x in v} - set(VERDICTS))
     if bad or not all(isinstance(x, str) for x in r):
         raise BeliefError(f"verdicts must be among {list(VERDICTS)} and reasons strings, got verdicts {bad or v} and "
@@ -151,17 +129,17 @@ class Belief:
             raise BeliefError(f"space must be a physics ParameterSpace, got {type(space).__name__}.")
         if not isinstance(decoder_config, Mapping) or not isinstance(decoder_config.get("kind"), str):
             raise BeliefError(f"decoder_config must be decoder.config() (a dict with a 'kind'), got "
-                              f"{_short(decoder_config)}.")
+                              f"{short(decoder_config)}.")
         if not isinstance(grid_config, Mapping):
-            raise BeliefError(f"grid_config must be grid.config() (a dict), got {_short(grid_config)}.")
+            raise BeliefError(f"grid_config must be grid.config() (a dict), got {short(grid_config)}.")
         if attrs is not None and not (isinstance(attrs, Mapping) and all(isinstance(k, str) for k in attrs)):
-            raise BeliefError(f"attrs must be a dict with string keys (JSON-able), got {_short(attrs)}.")
+            raise BeliefError(f"attrs must be a dict with string keys (JSON-able), got {short(attrs)}.")
         if not (isinstance(level, (int, float)) and 0 < level < 1):
             raise BeliefError(f"level must lie in (0, 1), e.g. 0.9, got {level!r}.")
-        self.decoder_config = _jsonable(dict(decoder_config), "decoder_config")
-        self.grid_config = _jsonable(dict(grid_config), "grid_config")
-        self.attrs: dict[str, Any] = _jsonable(dict(attrs or {}), "attrs")
-        if grid is not None and _jsonable(dict(grid.config()), "grid.config()") != self.grid_config:
+        self.decoder_config = jsonable(dict(decoder_config), "decoder_config")
+        self.grid_config = jsonable(dict(grid_config), "grid_config")
+        self.attrs: dict[str, Any] = jsonable(dict(attrs or {}), "attrs")
+        if grid is not None and jsonable(dict(grid.config()), "grid.config()") != self.grid_config:
             raise BeliefError("grid differs from grid_config; pass the grid whose config() is grid_config, or no grid.")
         self.P = _check_p(P, grid if grid is not None else candidates_from_config(self.grid_config))
         th = np.array(theta, dtype=float)
@@ -173,7 +151,7 @@ class Belief:
         if spread is not None and (not isinstance(spread, CellSpread) or spread.cell >= self.P.size
                                    or len(spread.std) != space.dim):
             raise BeliefError(f"spread must be a CellSpread of one of the {self.P.size} cells with {space.dim} stds, "
-                              f"got {_short(spread)}.")
+                              f"got {short(spread)}.")
         self.spread = spread
         self.verdict, self.reason = _check_verdicts(verdicts, reasons, lambda: self._numbers(self.level), space.dim)
         entries_from_records(self.attrs.get("at_bounds"), space.names)    # fails early on corrupt records
@@ -322,7 +300,7 @@ class Belief:
         ``attrs`` as JSON string attributes; ``format`` = :data:`FORMAT`."""
         P = self.P.copy()
         P.attrs = {}
-        coords, space_vars = _space_variables(self.space)
+        coords, space_vars = space_variables(self.space)
         ds = xr.Dataset({"P": P, "theta": (("cell_index", "parameter"), np.asarray(self.theta)),
                          "verdict": ("parameter", np.array(self.verdict, dtype=object)),
                          "reason": ("parameter", np.array(self.reason, dtype=object)), **space_vars},
@@ -353,7 +331,7 @@ class Belief:
             spread = CellSpread.from_dict(json.loads(ds.attrs["spread"])) if "spread" in ds.attrs else None
         except (ValueError, TypeError) as exc:
             raise BeliefError(f"the belief Dataset has a corrupt attribute ({exc}); re-save the belief.") from None
-        return cls(P, ds["theta"].values, _space_from_dataset(ds), decoder_config=configs[0], grid_config=configs[1],
+        return cls(P, ds["theta"].values, space_from_dataset(ds), decoder_config=configs[0], grid_config=configs[1],
                    verdicts=[str(v) for v in ds["verdict"].values], reasons=[str(r) for r in ds["reason"].values],
                    attrs=configs[2], level=float(ds.attrs["level"]), spread=spread)
 
@@ -374,47 +352,3 @@ class Belief:
             raise BeliefError(f"{path!r} is not a readable netCDF belief{'' if group is None else f' group {group!r}'} "
                               f"({exc}); write one with Belief.save(path).") from None
         return cls.from_dataset(ds)
-
-
-def _field_kinds() -> dict[str, Any]:
-    """Parameter field -> its type (str, float, bool or another, stored as JSON)."""
-    hints = typing.get_type_hints(Parameter)
-    return {f.name: hints.get(f.name, object) for f in dataclasses.fields(Parameter)}
-
-
-def _space_variables(space: ParameterSpace) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(coordinates, data variables) over ``parameter`` holding every field of every Parameter."""
-    coords: dict[str, Any] = {"parameter": list(space.names), "unit": ("parameter", list(space.units))}
-    data: dict[str, Any] = {}
-    for name, kind in _field_kinds().items():
-        if name in ("name", "unit"):
-            continue
-        values = [getattr(q, name) for q in space.parameters]
-        if kind is bool:
-            arr = np.array(values, dtype=np.int8)
-        elif kind in (int, float):
-            arr = np.array(values, dtype=float)
-        elif kind is str:
-            arr = np.array(values, dtype=object)
-        else:
-            arr = np.array([json.dumps(_jsonable(v, f"Parameter.{name}")) for v in values], dtype=object)
-        data[_FIELD_VARS.get(name, name)] = ("parameter", arr)
-    return coords, data
-
-
-def _space_from_dataset(ds: xr.Dataset) -> ParameterSpace:
-    """The ParameterSpace stored by :func:`_space_variables` (fields absent from the file take their defaults)."""
-    columns: dict[str, list[Any]] = {}
-    for name, kind in _field_kinds().items():
-        var = _FIELD_VARS.get(name, name)
-        if var not in ds.variables:
-            continue
-        raw = ds[var].values.tolist()
-        convert = {bool: bool, float: float, int: int, str: str}.get(kind, json.loads)
-        columns[name] = [convert(v) for v in raw]
-    try:
-        n = len(columns["name"])
-        return ParameterSpace(tuple(Parameter(**{k: v[i] for k, v in columns.items()}) for i in range(n)))
-    except (KeyError, TypeError, ValueError) as exc:
-        raise BeliefError(f"the belief Dataset's parameter space cannot be rebuilt ({exc}); "
-                          "re-save the belief.") from None
