@@ -173,6 +173,36 @@ def _pinned(space: ParameterSpace, best_theta: np.ndarray | Sequence[float], loc
     return pinned(marg, found, weak_ratio=cfg.weak_ratio, local_ratio=ratio)
 
 
+@dataclass(frozen=True)
+class _Refinement:
+    """What the local fit at the best evaluation adds: the marginals with that cell spread by its
+    Laplace std, the fit's record, conflicts between fit and marginals, and std / (width / √12)."""
+    marg: xr.Dataset
+    local: dict[str, Any]
+    conflicts: dict[str, str] = field(default_factory=dict)
+    ratio: np.ndarray | None = None
+    spread: CellSpread | None = None
+
+
+def _refine(objective: Objective, best: Record, noise: NoiseLevel, P: xr.DataArray, theta_cells: np.ndarray,
+            space: ParameterSpace, *, config: PosteriorConfig, vcfg: VerdictConfig, marg: xr.Dataset
+            ) -> _Refinement:
+    """Gauss-Newton at the best evaluation (:func:`_local_fit`): spread its cell by the local std
+    s_j (ratio s_j / (cell width_j / √12)) and flag parameters the step moves beyond the marginals."""
+    step, std, local = _local_fit(objective, best.theta, noise)
+    ratio, spread = None, None
+    if std is not None and step is not None:
+        ratio = std / np.maximum(step.width / np.sqrt(12.0), 1e-300)
+        spread = CellSpread(best.cell, tuple(std))
+        marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio,
+                         spread=spread)
+    conflicts: dict[str, str] = {}
+    if step is not None:
+        conflicts = refit_conflicts(marg, step.theta, step.error, step.start_error, noise_var=noise.total,
+                                    nats=vcfg.refit_nats, fraction=vcfg.refit_fraction)
+    return _Refinement(marg, local, conflicts, ratio, spread)
+
+
 def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: Sequence[Record], model: GPSurrogate, *,
            config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
            verdict_config: VerdictConfig | None = None) -> Belief:
@@ -211,20 +241,10 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
         conflicts = segment_conflicts(seg, identified_ratio=vcfg.identified_ratio)
     marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts=conflicts, config=vcfg)
-    local: dict[str, Any] = {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"}
-    extra: dict[str, str] = {}
-    ratio: np.ndarray | None = None
-    spread: CellSpread | None = None
+    refined = _Refinement(marg, {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"})
     if vcfg.refit and any(v != "not identified" for v in verdicts):
-        step, std, local = _local_fit(objective, best.theta, noise)
-        if std is not None and step is not None:
-            ratio = std / np.maximum(step.width / np.sqrt(12.0), 1e-300)
-            spread = CellSpread(best.cell, tuple(std))
-            marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio,
-                             spread=spread)
-        if step is not None:
-            extra = refit_conflicts(marg, step.theta, step.error, step.start_error, noise_var=noise.total,
-                                    nats=vcfg.refit_nats, fraction=vcfg.refit_fraction)
+        refined = _refine(objective, best, noise, P, theta_cells, space, config=config, vcfg=vcfg, marg=marg)
+    marg, local, extra, ratio, spread = refined.marg, refined.local, refined.conflicts, refined.ratio, refined.spread
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, config=vcfg, local_ratio=ratio,
                                conflicts={**extra, **conflicts,

@@ -197,6 +197,16 @@ def _held_errors(objective: Objective, theta: np.ndarray, held: np.ndarray) -> d
     return out
 
 
+def _record_after(step: Pass, added: str, extended: Objective, ident: IdentificationResult,
+                  held: np.ndarray) -> None:
+    """Fill ``step``'s "after" fields: the effect ``added``, the extended model's names, θ̂ of the
+    re-identification ``ident``, its held-out errors and its Belief."""
+    step.added, step.names_after = added, extended.space.names
+    step.theta_after = np.asarray(ident.best_theta, float)
+    step.held_after = _held_errors(extended, step.theta_after, held)
+    step.belief_after = ident.belief
+
+
 def identify_from(objective: Objective, warm: np.ndarray | None, *, budget: int, candidates: int, seed: int,
                   journal: Path | None = None, progress: bool = True,
                   posterior: PosteriorConfig | None = None) -> IdentificationResult:
@@ -287,15 +297,10 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
             if crit.found is None:
                 break
             added = added + (effect_from_config(crit.found.config),)
-            warm = np.asarray(crit.found.theta, float)
-            ident = identify_from(fit_objective.with_effects(added), warm, budget=config.budget,
-                                  candidates=config.candidates, seed=config.seed + k + 1,
+            ident = identify_from(fit_objective.with_effects(added), np.asarray(crit.found.theta, float),
+                                  budget=config.budget, candidates=config.candidates, seed=config.seed + k + 1,
                                   journal=_journal(journals, k + 1), progress=progress)
-            extended = full.with_effects(added)
-            step.added, step.names_after = crit.found.name, extended.space.names
-            step.theta_after = np.asarray(ident.best_theta, float)
-            step.held_after = _held_errors(extended, step.theta_after, held)
-            step.belief_after = ident.belief
+            _record_after(step, crit.found.name, full.with_effects(added), ident, held)
         settings = {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
                     "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
                     "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,

@@ -72,35 +72,14 @@ def simulate(theta: np.ndarray | Mapping[str, float] | None = None, *, controlle
     if length_reference not in ("encoder", "true"):
         raise ParameterError(f"length_reference must be 'encoder' or 'true', got {length_reference!r}.")
     theta_arr = space.as_array(theta, check_bounds=check_bounds)
-    if not (np.isfinite(duration) and duration > 0):
-        raise ParameterError(f"duration must be > 0 s, got {duration!r}.")
-    if not (np.isfinite(sample_rate) and sample_rate > 0):
-        raise ParameterError(f"sample_rate must be > 0 Hz, got {sample_rate!r}.")
-    if noise < 0 or not np.isfinite(noise):
-        raise ParameterError(f"noise must be a standard deviation >= 0 m, got {noise!r}.")
-    if noise > 0 and seed is None:
-        raise ParameterError("noise > 0 needs an explicit seed (an int or numpy Generator) so results repeat.")
+    _check_recording(duration, sample_rate, noise, seed)
     options = step_options(1.0 / sample_rate, options, what=f"sample_rate {sample_rate:g} Hz")
     model = settled_model(theta_arr, space=space, options=options, settle=settle, effects=effects)
     dt = model.options.dt
     substeps = int(round(1.0 / (sample_rate * dt)))
     n = int(round(duration * sample_rate)) + 1
     controller = controller if controller is not None else HoldController()
-    controller.reset(model)
-    nodes = np.empty((n, 12, 3))
-    velocities = np.empty((n, 12, 3))
-    controls = np.empty((n, 24))
-    rest = np.empty((n, 24))
-    tension = np.empty((n, 24))
-    for i in range(n):
-        t = i / sample_rate
-        nodes[i] = model.observe(model.node_positions())
-        velocities[i] = model.node_velocities()
-        rest[i] = model.rest_length_readings()
-        tension[i] = model.tensions()
-        controls[i] = controller(t, model)
-        if i < n - 1:
-            model.step(controls[i], n=substeps)   # raises PhysicsError if it diverges
+    nodes, velocities, controls, rest, tension = _record(model, controller, n, sample_rate, substeps)
     if length_reference == "true":
         controls, rest = controls + model.encoder_offset, rest + model.encoder_offset
     if noise > 0:
@@ -118,3 +97,37 @@ def simulate(theta: np.ndarray | Mapping[str, float] | None = None, *, controlle
     return make_trajectory(np.arange(n) / sample_rate, nodes, controls, velocities=recorded,
                            rest_length=rest, tension=tension,
                            theta=theta_arr, parameter_names=space.names, attrs=attrs)
+
+
+def _check_recording(duration: float, sample_rate: float, noise: float,
+                     seed: int | np.random.Generator | None) -> None:
+    """Raise :class:`ParameterError` for a duration or rate that is not > 0, a negative noise, or
+    noise without a seed."""
+    if not (np.isfinite(duration) and duration > 0):
+        raise ParameterError(f"duration must be > 0 s, got {duration!r}.")
+    if not (np.isfinite(sample_rate) and sample_rate > 0):
+        raise ParameterError(f"sample_rate must be > 0 Hz, got {sample_rate!r}.")
+    if noise < 0 or not np.isfinite(noise):
+        raise ParameterError(f"noise must be a standard deviation >= 0 m, got {noise!r}.")
+    if noise > 0 and seed is None:
+        raise ParameterError("noise > 0 needs an explicit seed (an int or numpy Generator) so results repeat.")
+
+
+def _record(model: T6Model, controller: Controller, n: int, sample_rate: float,
+            substeps: int) -> tuple[np.ndarray, ...]:
+    """Run ``controller`` on ``model`` for n samples at ``sample_rate`` [Hz], ``substeps`` physics
+    steps apart; returns observed nodes (n, 12, 3) [m], velocities (n, 12, 3) [m/s], controls,
+    rest-length readings and tensions (n, 24) [m, m, N]. The model's step raises
+    :class:`PhysicsError` if the simulation diverges."""
+    controller.reset(model)
+    nodes, velocities = np.empty((n, 12, 3)), np.empty((n, 12, 3))
+    controls, rest, tension = np.empty((n, 24)), np.empty((n, 24)), np.empty((n, 24))
+    for i in range(n):
+        nodes[i] = model.observe(model.node_positions())
+        velocities[i] = model.node_velocities()
+        rest[i] = model.rest_length_readings()
+        tension[i] = model.tensions()
+        controls[i] = controller(i / sample_rate, model)
+        if i < n - 1:
+            model.step(controls[i], n=substeps)
+    return nodes, velocities, controls, rest, tension
