@@ -36,14 +36,28 @@ evaluation, unless ``--skip-checks``.
 from __future__ import annotations
 
 import argparse
-import json
+import contextlib
 import os
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from belief.noise import DEFAULT_DISCREPANCY
 from belief.presets import DEFAULT_PRESET, PRESETS
 from physics.prior_box import add_prior_box_options, box_record
+
+if TYPE_CHECKING:                   # the engine and torch load only when a command needs them
+    import numpy as np
+    import xarray as xr
+
+    from belief.grid import CandidateSet
+    from belief.presets import Preset
+    from belief.result import IdentificationResult
+    from embeddings.base import Decoder
+    from physics.effects import Effect
+    from physics.objective import Objective
+    from physics.parameters import ParameterSpace
+    from physics.push import PushObjective
+    from physics.trajectory_objective import TrajectoryObjective
 
 __all__ = ["register_identify", "run_identify"]
 
@@ -111,7 +125,7 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.set_defaults(func=run_identify)
 
 
-def _push_objective(seed: int, space: Any) -> tuple[Any, Any]:
+def _push_objective(seed: int, space: ParameterSpace) -> tuple[PushObjective, np.ndarray]:
     import numpy as np
 
     from physics.push import PushObjective, generate_push_data
@@ -121,30 +135,7 @@ def _push_objective(seed: int, space: Any) -> tuple[Any, Any]:
     return PushObjective(impulses, observed, space=space, noise_std=0.05), truth
 
 
-def _plot_rollouts(dataset: Any, space: Any, result: Any, path: str, effects: tuple[Any, ...], *,
-                   title: str = "") -> None:
-    """Observed centre of mass vs open-loop rollouts at the nominal, best and posterior-mean θ, for one trajectory;
-    the figure says why when the best θ's rollout drifts further than the nominal one's."""
-    from belief.plots import rollout_note
-    from physics.errors import PhysicsError
-    from physics.plotting import plot_observed_vs_predicted, rollout_errors
-    from physics.trajectory_objective import TrajectoryObjective
-
-    thetas = {"nominal": space.nominal, "best": result.best_theta.values,
-              "posterior mean": result.marginals["mean"].values}
-    preds = {}
-    with TrajectoryObjective([dataset], horizon="rollout", n_workers=0, effects=effects) as roll:
-        for name, th in thetas.items():
-            try:
-                preds[name] = roll.predictions(th)[0]
-            except PhysicsError as exc:  # a rollout may diverge; say so and draw the others
-                print(f"tensegrid identify: rollout at the {name} theta diverged ({exc}); not drawn", file=sys.stderr)
-    if preds:
-        plot_observed_vs_predicted(dataset, preds, path, title=title or "observed vs rollout predictions",
-                                   note=rollout_note(rollout_errors(dataset, preds)))
-
-
-def _data_truth(datasets: list[Any], space: Any) -> Any:
+def _data_truth(datasets: list[xr.Dataset], space: ParameterSpace) -> np.ndarray | None:
     """θ that generated the data (the files' ``theta`` variable), if every file carries the same one."""
     import numpy as np
 
@@ -159,9 +150,11 @@ def _data_truth(datasets: list[Any], space: Any) -> Any:
     return first if same else None
 
 
-def _objective(args: argparse.Namespace, effects: tuple[Any, ...]) -> tuple[Any, Any, list[Any]]:
+def _objective(args: argparse.Namespace, effects: tuple[Effect, ...], cleanup: contextlib.ExitStack
+               ) -> tuple[PushObjective | TrajectoryObjective, np.ndarray | None, list[xr.Dataset]]:
     """(objective, true θ or None, datasets) from the data files or the toy, over the prior box of
-    --nominal, --bounds and --params (validated before the data are loaded), with ``effects``."""
+    --nominal, --bounds and --params (validated before the data are loaded), with ``effects``; a
+    trajectory objective's workers close with ``cleanup``."""
     from physics.prior_box import prior_box_from_args
 
     space = prior_box_from_args(args, _default_space(args, effects))
@@ -178,13 +171,13 @@ def _objective(args: argparse.Namespace, effects: tuple[Any, ...]) -> tuple[Any,
         from physics.cli_check import preflight
 
         preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
-    objective = TrajectoryObjective(datasets, space=space, horizon=1, loss=args.loss, windows=args.windows,
-                                options=options, n_workers=args.workers if args.workers > 1 else 0,
-                                effects=effects)
-    return objective, _data_truth(datasets, objective.space), datasets
+    trajectories = cleanup.enter_context(TrajectoryObjective(
+        datasets, space=space, horizon=1, loss=args.loss, windows=args.windows, options=options,
+        n_workers=args.workers if args.workers > 1 else 0, effects=effects))
+    return trajectories, _data_truth(datasets, trajectories.space), datasets
 
 
-def _latent_decoder(args: argparse.Namespace, space: Any) -> Any:
+def _latent_decoder(args: argparse.Namespace, space: ParameterSpace) -> Decoder | None:
     """The latent decoder named on the command line, else the one shipped for this box when the preset
     has a latent stage, else None (such a preset then runs without it, with a PresetWarning)."""
     from embeddings import REMBO, load_decoder
@@ -210,7 +203,7 @@ def _latent_decoder(args: argparse.Namespace, space: Any) -> Any:
     return decoder
 
 
-def _preset(args: argparse.Namespace) -> Any:
+def _preset(args: argparse.Namespace) -> Preset:
     """The preset named by --preset, sized by --latent, --candidates and --points-per-dim."""
     from dataclasses import replace
 
@@ -227,7 +220,8 @@ def _preset(args: argparse.Namespace) -> Any:
     return replace(preset, candidates=args.candidates, points_per_dim=args.points_per_dim or 11)
 
 
-def _run(args: argparse.Namespace, objective: Any, decoder: Any, effects: tuple[Any, ...]) -> tuple[Any, Any, Any]:
+def _run(args: argparse.Namespace, objective: Objective, decoder: Decoder | None, effects: tuple[Effect, ...]
+         ) -> tuple[IdentificationResult, Decoder, CandidateSet]:
     """(result, decoder, grid of P) of the preset with the command line's options; a budget warning goes
     into the summary, not stderr; a journal of another problem is set aside unless --resume."""
     import warnings
@@ -257,46 +251,12 @@ def _run(args: argparse.Namespace, objective: Any, decoder: Any, effects: tuple[
     return result, result.belief.decoder(), result.belief.grid()
 
 
-def _write(args: argparse.Namespace, result: Any, decoder: Any, grid: Any, truth: Any, datasets: list[Any],
-           effects: tuple[Any, ...]) -> None:
-    """result.nc, summary.txt, marginals.csv, history.csv, the figures and report.html into ``args.out``."""
-    import numpy as np
-    import pandas as pd
-
-    from belief.html_report import write_identify_report
-    from belief.plots import plot_error_trace, plot_marginals, plot_pairs, plot_posterior_2d
-
-    out, space = args.out, decoder.space
-    result.save(os.path.join(out, "result.nc"))
-    with open(os.path.join(out, "summary.txt"), "w") as fh:
-        fh.write(result.summary(truth=truth) + "\n")
-    result.marginals.to_dataframe().to_csv(os.path.join(out, "marginals.csv"))
-    h = result.history
-    hist_tab = {"evaluation": h["evaluation"].values, "error": h["error"].values, "seconds": h["seconds"].values,
-                "status": h["status"].values}
-    hist_tab.update({name: h["theta"].values[:, j] for j, name in enumerate(space.names)})
-    pd.DataFrame(hist_tab).to_csv(os.path.join(out, "history.csv"), index=False)
-    plot_error_trace(result, os.path.join(out, "error_vs_evaluations.png"), label=f"best so far ({args.preset})")
-    plot_marginals(result.posterior, decoder.decode(np.asarray(grid.points)), space,
-                   os.path.join(out, "posterior_marginals.png"), marginals=result.marginals, truth=truth)
-    if result.posterior.ndim == 2 and result.posterior.dims == ("z0", "z1"):
-        plot_posterior_2d(result.posterior, os.path.join(out, "posterior_2d.png"), decoder=decoder,
-                          evaluated=h["z"].values, truth=truth)
-    if datasets:
-        title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
-                 if len(datasets) > 1 else "")
-        _plot_rollouts(datasets[0], space, result, os.path.join(out, "observed_vs_predicted.png"), effects,
-                       title=title)
-    plot_pairs(result.belief, os.path.join(out, "pairs.png"), truth=truth)
-    write_identify_report(out, result, args, datasets, truth=truth)
-
-
 def _note(text: str) -> None:
     """One line on stderr, ``tensegrid identify: note: TEXT`` (warnings, resumed and set-aside journals)."""
     print(f"tensegrid identify: note: {text}", file=sys.stderr)
 
 
-def _effects(args: argparse.Namespace) -> tuple[Any, ...]:
+def _effects(args: argparse.Namespace) -> tuple[Effect, ...]:
     """The effects of --effects or --model (physics.model_file), () without them."""
     from physics.errors import ParameterError
     from physics.model_file import effects_by_name, read_model_file
@@ -308,7 +268,7 @@ def _effects(args: argparse.Namespace) -> tuple[Any, ...]:
     return effects_by_name(effects) if effects else read_model_file(model) if model else ()
 
 
-def _default_space(args: argparse.Namespace, effects: tuple[Any, ...]) -> Any:
+def _default_space(args: argparse.Namespace, effects: tuple[Effect, ...]) -> ParameterSpace:
     """The parameter space before --nominal, --bounds and --params: the push toy's, or the T6's with
     ``effects`` (those of --effects or --model)."""
     from physics.effects import model_space
@@ -323,7 +283,7 @@ def _journal_path(args: argparse.Namespace) -> str | None:
     return None if journal.lower() == "none" else journal
 
 
-def _budget_note(args: argparse.Namespace, decoder: Any, dim: int) -> str | None:
+def _budget_note(args: argparse.Namespace, decoder: Decoder | None, dim: int) -> str | None:
     """The warning for a budget that leaves BO nothing after its initial design of max(5, d + 1) Sobol
     points (belief.search), so that BO never runs; None when BO runs or the preset refuses the budget."""
     from dataclasses import replace
@@ -338,7 +298,7 @@ def _budget_note(args: argparse.Namespace, decoder: Any, dim: int) -> str | None
     if not (bo_only or latent_only) or args.budget < minimum_budget(preset, dim):
         return None
     step = minimum_budget(preset, dim) - minimum_budget(replace(preset, local_step=False), dim)
-    n_init = default_n_init(decoder.dim if preset.search is None else dim)
+    n_init = default_n_init(decoder.dim if latent_only and decoder is not None else dim)
     search = args.budget - step
     if search > n_init:
         return None
@@ -349,7 +309,8 @@ def _budget_note(args: argparse.Namespace, decoder: Any, dim: int) -> str | None
             f"--budget {args.budget - search + n_init + 1} or more.")
 
 
-def _before_run(args: argparse.Namespace, objective: Any, decoder: Any, effects: tuple[Any, ...]) -> None:
+def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder | None, effects: tuple[Effect, ...]
+                ) -> None:
     """The checks and notes due before anything is written: the budget, a journal to --resume, the
     prior box (printed when it differs from the default) and a budget that leaves BO no step."""
     from belief.errors import BudgetError, JournalError
@@ -377,6 +338,7 @@ def _before_run(args: argparse.Namespace, objective: Any, decoder: Any, effects:
 
 def run_identify(args: argparse.Namespace) -> int:
     """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
+    from belief.cli_outputs import write_outputs
     from physics.errors import TensegridError
     from physics.outputs import check_output_dir, output_dir
 
@@ -384,25 +346,19 @@ def run_identify(args: argparse.Namespace) -> int:
         hint = " --effects takes every name after it: put it after the data files." if args.effects else ""
         print(f"tensegrid identify: give either DATA.nc files or --toy push (exactly one).{hint}", file=sys.stderr)
         return 2
-    objective = None
-    try:
-        check_output_dir(args.out)
-        effects = _effects(args)            # the model file is read once; refused with the toy
-        objective, truth, datasets = _objective(args, effects)
-        decoder = _latent_decoder(args, objective.space)
-        _before_run(args, objective, decoder, effects)
-        with output_dir(args.out):          # removed again if the run fails before writing into it
-            result, decoder, grid = _run(args, objective, decoder, effects)
-    except TensegridError as exc:
-        print(f"tensegrid identify: {exc}", file=sys.stderr)
-        return 2
-    finally:
-        close = getattr(objective, "close", None)
-        if callable(close):
-            close()
-    _write(args, result, decoder, grid, truth, datasets, effects)
-    with open(os.path.join(args.out, "prior_box.json"), "w") as fh:     # a --params file of this run's box
-        json.dump(result.config["prior_box"], fh, indent=1)
+    with contextlib.ExitStack() as cleanup:     # closes the objective's workers before the figures
+        try:
+            check_output_dir(args.out)
+            effects = _effects(args)            # the model file is read once; refused with the toy
+            objective, truth, datasets = _objective(args, effects, cleanup)
+            latent = _latent_decoder(args, objective.space)
+            _before_run(args, objective, latent, effects)
+            with output_dir(args.out):          # removed again if the run fails before writing into it
+                result, decoder, grid = _run(args, objective, latent, effects)
+        except TensegridError as exc:
+            print(f"tensegrid identify: {exc}", file=sys.stderr)
+            return 2
+    write_outputs(args, result, decoder, grid, truth, datasets, effects)
     print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
     print(result.summary(truth=truth))
     print(f"wrote {args.out}/report.html (one page to hand on), result.nc, summary.txt, marginals.csv, history.csv, "
