@@ -18,11 +18,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from belief.errors import BeliefError
+
+if TYPE_CHECKING:
+    from physics.parameters import ParameterSpace
 
 __all__ = ["AT_BOUND_TOLERANCE", "SIDES", "AtBound", "at_bounds", "entries_from_records", "inadequacy_text"]
 
@@ -112,7 +115,7 @@ def _sides(u: np.ndarray, tolerance: float) -> list[str | None]:
     return ["lower" if v <= tolerance + eps else "upper" if v >= 1.0 - tolerance - eps else None for v in u]
 
 
-def at_bounds(space: Any, theta: np.ndarray | Sequence[float], *, tolerance: float = AT_BOUND_TOLERANCE,
+def at_bounds(space: ParameterSpace, theta: np.ndarray | Sequence[float], *, tolerance: float = AT_BOUND_TOLERANCE,
               source: str = "fit",
               start: np.ndarray | Sequence[float] | None = None) -> tuple[AtBound, ...]:
     """The parameters of θ (shape ``D``, in ``space``'s order) within ``tolerance`` x width of a bound.

@@ -185,7 +185,7 @@ def default_n_init(dim: int) -> int:
     return max(5, int(dim) + 1)
 
 
-def _carried_init(carry: Sequence[Record], n_init: Any) -> Any:
+def _carried_init(carry: Sequence[Record], n_init: int | None) -> int | None:
     """The initial design size with carried evaluations: their number (they are batch 0)."""
     if not carry:
         return n_init

@@ -33,13 +33,16 @@ import json
 import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from embeddings.errors import EmbeddingError
 from embeddings.transitions import Transitions
 from physics.parameters import ParameterSpace
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["T6DataConfig", "t6_transitions", "DEFAULT_CACHE"]
 
@@ -82,7 +85,8 @@ def _summarize(displacement: np.ndarray, summary: str) -> np.ndarray:
     return displacement.reshape(len(displacement), -1)
 
 
-def _counterfactual(ds: Any, theta: np.ndarray, space: ParameterSpace, rows: np.ndarray, horizon: int) -> np.ndarray:
+def _counterfactual(ds: xr.Dataset, theta: np.ndarray, space: ParameterSpace, rows: np.ndarray,
+                    horizon: int) -> np.ndarray:
     """x̂_{i+h}(θ) - x̂_{i+h}(θ₀) (m, 12, 3): both predicted from the recorded state at each row."""
     from physics.predictor import ObservedStates, actuator_states, predict
     from physics.tensegrity import T6Model
@@ -97,7 +101,7 @@ def _counterfactual(ds: Any, theta: np.ndarray, space: ParameterSpace, rows: np.
     return out
 
 
-def _features(ds: Any, config: T6DataConfig, theta: np.ndarray | None,
+def _features(ds: xr.Dataset, config: T6DataConfig, theta: np.ndarray | None,
               space: ParameterSpace) -> tuple[np.ndarray, np.ndarray]:
     """(context (m, 96), target (m, k)) of one simulated trajectory; ``theta`` is the θ' of a
     counterfactual target (module docstring)."""
