@@ -39,7 +39,7 @@ from belief.least_squares import LeastSquaresConfig
 from criticism.errors import CriticismError
 from criticism.residuals import residual_dataset, residual_summary
 from criticism.search import CriticismConfig, polish
-from physics.effects import CableAnchors, EndCapRadius, TensionLimitedActuation, effect_from_config
+from physics.effects import CableAnchors, EndCapRadius, RollingResistance, TensionLimitedActuation, effect_from_config
 from physics.effects.base import Effect
 from physics.errors import PhysicsError
 from physics.trajectory_objective import TrajectoryObjective
@@ -55,7 +55,7 @@ FREQUENCY_BANDS: tuple[float, ...] = (0.0, 1.0, 5.0, 15.0)
 
 
 def _default_components() -> tuple[Effect, ...]:
-    return (TensionLimitedActuation(), CableAnchors(), EndCapRadius())
+    return (TensionLimitedActuation(), CableAnchors(), EndCapRadius(), RollingResistance())
 
 
 @dataclass(frozen=True)
@@ -68,7 +68,7 @@ class MismatchConfig:
 
     components: tuple[Effect, ...] = field(default_factory=_default_components)
     min_gain: float = 0.1
-    rounds: int = 2
+    rounds: int = 3
     drift_time: float = 0.5
     local: LeastSquaresConfig = field(default_factory=LeastSquaresConfig)
     bound_tolerance: float = AT_BOUND_TOLERANCE

@@ -106,15 +106,17 @@ def flops_for(rng: np.random.Generator, version: int = 1) -> dict[str, Flop]:
 
 
 def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = Observation(),
-                 duration: float = 3.0, effects: Effects | None = None, version: int = 1) -> list[Path]:
+                 duration: float = 3.0, effects: Effects | None = None, version: int = 1,
+                 ground_rolling: float = 1.0) -> list[Path]:
     """Write data set ``name`` for ``seed`` into folder ``out``; returns the trajectory files.
-    ``effects`` replaces the data set's own (for combinations); ``version``: of the flops."""
+    ``effects`` replaces the data set's own (for combinations); ``version``: of the flops;
+    ``ground_rolling``: the ground's rolling friction (TestbedRobot; ablations only)."""
     robot_def, rng = robot_for(name, seed)
     if effects is not None:
         robot_def = replace(robot_def, effects=effects)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    robot = TestbedRobot(robot_def.theta, robot_def.effects)
+    robot = TestbedRobot(robot_def.theta, robot_def.effects, ground_rolling=ground_rolling)
     try:
         for _ in range(int(round(SETTLE_S / robot.dt))):
             robot.step(robot.rest)

@@ -13,8 +13,10 @@ Modelling choices (the testbed's own; docs/testbed.md lists them all):
   backward difference of L over one step and the damping term clipped to ±k (L − L0);
 - the actuator moves each rest length L0 toward its target by at most targetVelocity·dt per step;
   a target that would make the tension exceed maxTens is lengthened to L − maxTens / k first;
-- Bullet's ground plane, lateral friction 0.5 (rod 0.5 × ground 1.0), rolling friction 0.01,
-  restitution 0, time step 1 ms, gravity −9.81 along world z.
+- Bullet's ground plane, lateral friction 0.5 (rod 0.5 × ground 1.0), rolling friction 0.01 on
+  the rods and 1.0 on the ground (``ground_rolling``): Bullet combines a pair's rolling friction
+  as r_a f_b + r_b f_a, so a cap on the ground has 0.01 × 1.0 + 1.0 × 0.5 = 0.51 [m]; restitution
+  0, time step 1 ms, gravity −9.81 along world z.
 
 Rest lengths at build are L0_build = L_build − pretension / k with L_build the anchor-to-anchor
 distance. Encoders count spool travel since assembly; the data format (docs/data-format.md) says
@@ -120,8 +122,9 @@ class TestbedRobot:
 
     __test__ = False     # not a pytest class, despite its name
 
-    def __init__(self, theta: dict[str, float], effects: Effects = Effects(), *, face: int = 0) -> None:
-        self.theta, self.effects, self.dt = dict(theta), effects, _DT
+    def __init__(self, theta: dict[str, float], effects: Effects = Effects(), *, face: int = 0,
+                 ground_rolling: float = 1.0) -> None:
+        self.theta, self.effects, self.dt, self.ground_rolling = dict(theta), effects, _DT, float(ground_rolling)
         self.k, self.c = theta["stiffnessActive"], theta["damping"]
         self.client = pb.connect(pb.DIRECT)
         pb.setGravity(0, 0, -_GRAVITY, physicsClientId=self.client)
@@ -163,7 +166,7 @@ class TestbedRobot:
         shape = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=self.client)
         rot = _rotation_between(np.array([0.0, 0.0, 1.0]), self.effects.ground_normal())
         self.ground = pb.createMultiBody(0, shape, baseOrientation=_quaternion(rot), physicsClientId=self.client)
-        pb.changeDynamics(self.ground, -1, lateralFriction=1.0, restitution=0.0, rollingFriction=1.0,
+        pb.changeDynamics(self.ground, -1, lateralFriction=1.0, restitution=0.0, rollingFriction=self.ground_rolling,
                           physicsClientId=self.client)
 
     def _rods(self, nodes: np.ndarray) -> None:

@@ -1,6 +1,6 @@
 """physics.effects: physical effects as composable parts of the T6 model (base: the contract;
-world, forces, components, sensing: the catalog; actuation, anchors, fixed_anchors: components of
-the mismatch stage; catalog: all of them by name)."""
+world, forces, components, sensing: the catalog; actuation, anchors, fixed_anchors, contact:
+components of the mismatch stage; catalog: all of them by name)."""
 from physics.effects.actuation import TensionLimitedActuation
 from physics.effects.anchors import CableAnchors
 from physics.effects.base import Effect, ForceTerm, ModelSetup, WrenchTerm, model_space, split_theta
@@ -12,6 +12,7 @@ from physics.effects.components import (
     NonlinearStiffness,
     RateLimitedActuation,
 )
+from physics.effects.contact import RollingResistance
 from physics.effects.fixed_anchors import FixedCableAnchors
 from physics.effects.forces import AirDrag, GroundViscosity
 from physics.effects.sensing import SensorBias
@@ -20,4 +21,5 @@ from physics.effects.world import CylinderCaps, EndCapRadius, GroundSlope, Point
 __all__ = ["Effect", "ForceTerm", "WrenchTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
            "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness",
            "RateLimitedActuation", "TensionLimitedActuation", "CableAnchors", "FixedCableAnchors",
-           "AirDrag", "GroundViscosity", "SensorBias", "EndCapRadius", "CylinderCaps", "GroundSlope", "PointMass"]
+           "AirDrag", "GroundViscosity", "RollingResistance", "SensorBias", "EndCapRadius", "CylinderCaps",
+           "GroundSlope", "PointMass"]

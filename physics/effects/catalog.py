@@ -11,6 +11,7 @@ from physics.effects.components import (
     NonlinearStiffness,
     RateLimitedActuation,
 )
+from physics.effects.contact import RollingResistance
 from physics.effects.fixed_anchors import FixedCableAnchors
 from physics.effects.forces import AirDrag, GroundViscosity
 from physics.effects.sensing import SensorBias
@@ -23,10 +24,10 @@ _CATALOG = (GroundSlope, AirDrag, GroundViscosity, CableHysteresis, NonlinearSti
             RateLimitedActuation, SensorBias, EndCapRadius, PointMass)
 
 #: Every effect class, by name: the catalog's, then those criticism does not try by default (EncoderOffset;
-#: TensionLimitedActuation, CableAnchors, FixedCableAnchors and CylinderCaps, components of the mismatch stage,
-#: criticism.mismatch).
+#: TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps and RollingResistance, components of
+#: the mismatch stage, criticism.mismatch).
 EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in _CATALOG + (
-    EncoderOffset, TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps)}
+    EncoderOffset, TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps, RollingResistance)}
 
 
 def catalog() -> tuple[Effect, ...]:

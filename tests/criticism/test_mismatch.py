@@ -6,11 +6,12 @@ axis are internal forces (no net force on the robot), a slack cable gets no anch
 is the bare T6, and the effect refuses to lose its actuator.
 
 Target, small: on 1 s flops of the foreign testbed's nominal robot (Bullet), fitted on one flop
-and scored on the held-out flop, the stage keeps both components, puts the anchors clearly off
-the axis (the testbed's are 6 cm off; DART's approximation of them fits 3-6 cm), and cuts the
-held-out one-step error and the drift at 0.5 s to at most 0.6 of the re-tuned bare model's (the
-issue's target is 0.5: measured here at 0.50 and 0.44 with 3 least-squares evaluations, and by
-benchmarks/mismatch.py on 3 s flops). On DART's own flops it keeps nothing.
+and scored on the held-out flop, the stage keeps the default components (the tension-limited
+actuator, anchors, rolling resistance), puts the anchors clearly off the axis (the testbed's are
+6 cm off; DART's approximation of them fits 3-6 cm), and cuts the held-out one-step error and the
+drift at 0.5 s to at most 0.5 of the re-tuned bare model's, the issue's target (measured here at
+0.44 and 0.34 with 3 least-squares evaluations; without rolling resistance 0.50 and 0.45;
+benchmarks/mismatch.py measures it on 3 s flops). On DART's own flops it keeps nothing.
 """
 from __future__ import annotations
 
@@ -23,7 +24,13 @@ from criticism.mismatch import MismatchConfig, absorb_mismatch, superseded
 from physics import FlopController, TrajectoryObjective, load_trajectory, simulate
 from physics.actuators import MotorGains, tension_limited_step
 from physics.effects import (
-    CableAnchors, CylinderCaps, FixedCableAnchors, RateLimitedActuation, TensionLimitedActuation, model_space,
+    CableAnchors,
+    CylinderCaps,
+    FixedCableAnchors,
+    RateLimitedActuation,
+    RollingResistance,
+    TensionLimitedActuation,
+    model_space,
 )
 from physics.effects.anchors import anchor_forces
 from physics.errors import PhysicsError
@@ -104,18 +111,18 @@ def test_stage_absorbs_the_testbed_mismatch(tmp_path) -> None:
     paths = make_dataset("nominal", 0, tmp_path, obs=Observation(noise=2e-4), duration=1.0)
     files = {p.stem: p for p in paths}
     data = [load_trajectory(files[k]) for k in ("flop_0", "heldout_0")]
-    report = _stage(data, (TensionLimitedActuation(), CableAnchors()), rounds=2)
-    assert {e.name for e in report.effects} == {"tension_limited_actuator", "cable_anchors"}
+    report = _stage(data, (TensionLimitedActuation(), CableAnchors(), RollingResistance()), rounds=3)
+    assert {e.name for e in report.effects} == {"tension_limited_actuator", "cable_anchors", "rolling_resistance"}
     offset = report.theta[list(report.names).index("anchor_offset")]
     assert 0.015 <= offset <= 0.09, offset
     ratios = report.ratios()
-    assert ratios["one_step"] <= 0.6 and ratios["drift"] <= 0.6, ratios
+    assert ratios["one_step"] <= 0.5 and ratios["drift"] <= 0.5, ratios
 
 
 @pytest.mark.slow
 def test_stage_keeps_nothing_on_its_own_engine() -> None:
     data = [simulate(controller=FlopController(heading=h), duration=1.0, noise=2e-4, seed=k)
             for k, h in enumerate((0.3, 2.4))]
-    report = _stage(data, (TensionLimitedActuation(), CableAnchors()), rounds=1)
+    report = _stage(data, (TensionLimitedActuation(), CableAnchors(), RollingResistance()), rounds=1)
     assert max(t.gain for t in report.trials) < 0.1
     assert report.effects == (), report.text()
