@@ -63,7 +63,7 @@ def at_times(a: np.ndarray, b: np.ndarray, time: np.ndarray) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=2)
-    ap.add_argument("--levers", type=float, nargs="+", default=[0.05, 0.2, 0.5, 1.0])
+    ap.add_argument("--levers", type=float, nargs="+", default=[0.1, 0.2, 0.5, 1.0])
     args = ap.parse_args(argv)
     made, ablated = testbed_files(args.seed, 1.0), testbed_files(args.seed, 0.0)
     print(f"mean node distance [mm] at {', '.join(f'{t:g}' for t in TIMES)} s; nominal testbed robot {args.seed}")
