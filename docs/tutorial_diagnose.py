@@ -4,9 +4,9 @@ The "robot" here is the simulated SUPERball with an actuator delay of 80 ms (com
 motors late, as over a slow bus). Three flops toward three headings are recorded with 0.2 mm
 motion-capture noise; the recordings do not say that anything is delayed. ``diagnose``
 
-0. tries the mismatch stage's component changes (another actuator law, cable anchors, end caps;
-   docs/diagnose.md, "Engine mismatch"): on the engine's own data it keeps none (the quick mode
-   skips it),
+0. tries the mismatch stage's component changes (another actuator law, cable anchors, end caps,
+   rolling resistance; docs/diagnose.md, "Engine mismatch"): on the engine's own data it keeps
+   none (the quick mode skips it),
 1. identifies the 15 T6 parameters on the first two flops,
 2. ranks the catalog effects by how much of the third flop's residual each explains beyond what
    re-tuning the model's own parameters explains (the floor),
