@@ -12,12 +12,12 @@ projection onto the ground plane:
     τ_stop = −(P I_i⁻¹ P)⁺ ω⊥ / dt,    τ_i = τ_stop · min(1, μ_r N_i / |τ_stop|)
 
 with M the robot's mass, C the caps in contact over the whole robot (the quasi-static share of the
-weight each cap carries: the model reads no contact forces back from DART), I_i the rod's inertia
-tensor (transverse I_t, axial I_a about its axis â) and dt the physics step. τ_stop is the torque in
-the ground plane that stops ω⊥ in one step of the free rod, so the resistance brakes a turn to rest
-and holds it (as static rolling friction does) but never reverses it, about the rod's own axis too
-(where I_a ≪ I_t). τ_i · ω_i = τ_i · ω⊥ ≤ 0: the effect removes energy, never adds it. μ_r = 0
-is the T6 without it.
+weight each cap carries: the model reads no contact forces back from DART), I_i the inertia tensor
+of the bare rod (transverse I_t, axial I_a about its axis â; point masses left out) and dt the
+physics step. τ_stop is the torque in the ground plane that stops ω⊥ in one step of the free rod,
+so the resistance brakes a turn to rest and holds it (as static rolling friction does) but never
+reverses it, about the rod's own axis too (where I_a ≪ I_t). τ_i · ω_i = τ_i · ω⊥ ≤ 0: the effect
+removes energy, never adds it. μ_r = 0 is the T6 without it.
 """
 from __future__ import annotations
 
