@@ -99,7 +99,9 @@ def run_one(seed: int, noise: float, budget: int, n_workers: int, journals: Path
     folder.mkdir(parents=True, exist_ok=True)
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
-        stage = journalled_stage(objective, fit, [2], config=MismatchConfig(), journal_dir=folder, progress=False)
+        # the bare model needs only the stage's base re-tuning, which comes before any component trial
+        config = MismatchConfig() if "augmented" in models else MismatchConfig(components=())
+        stage = journalled_stage(objective, fit, [2], config=config, journal_dir=folder, progress=False)
         effects, theta, base_theta = stage.effects, stage.theta, stage.base_theta
         model = objective.select([0, 1])
         starts = {"bare": (model, base_theta), "augmented": (model.with_effects(effects), theta)}
