@@ -103,11 +103,15 @@ class RollingResistance(Effect):
         half, band = 0.5 * float(params["rod_length"]), self.band
         inertia = np.array([mp.transverse, mp.axial])
 
+        weight: list[float] = []
+
         def term(q: np.ndarray, dq: np.ndarray, out: np.ndarray) -> None:
-            # read at each step: later effects may add point masses, change the cap radius, ground or gravity
-            mass = 6 * mp.mass + sum(m for _, m, _ in setup.point_masses)
-            rolling_torques(q, dq, half, setup.ground_normal, setup.cap_radius + band,
-                            mass * float(np.linalg.norm(setup.gravity)), lever, inertia, setup.dt, out)
+            # read when stepping, after every effect has edited the setup (point masses, cap radius, ground, gravity)
+            if not weight:
+                mass = 6 * mp.mass + sum(m for _, m, _ in setup.point_masses)
+                weight.append(mass * float(np.linalg.norm(setup.gravity)))
+            rolling_torques(q, dq, half, setup.ground_normal, setup.cap_radius + band, weight[0], lever, inertia,
+                            setup.dt, out)
 
         setup.wrench_terms.append(term)
 
