@@ -118,7 +118,7 @@ class T6Model:
         self._pending: deque = deque()
         self._node_forces = np.zeros((12, 3))
         self._forces = np.zeros(36)
-        self._tension = np.zeros(N_CABLES)
+        self._tension = self.setup.tension        # written in place each step; effects' terms read it
         self._length = np.zeros(N_CABLES)
         self._build_world()
         self.reset()
@@ -232,6 +232,8 @@ class T6Model:
             add_node_forces(axes, self.half_lengths, extra, self._forces)
         for wrench in self.setup.wrench_terms:
             wrench(q, dq, self._forces)
+        for contact in self.setup.contact_terms:     # last: they read the whole applied wrench
+            contact(q, dq, self._forces)
         return fastest
 
     def command(self, target_readings: np.ndarray | None, reference: str = "encoder") -> None:

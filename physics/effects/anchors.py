@@ -17,10 +17,9 @@ same torque perpendicular to the rod (a torque about a rod's own axis cannot be 
 two nodes; the model's axial spin damper stands for it). ρ = 0 is the T6 without the effect. A
 cable still never pushes: T_j' >= 0 along the anchor-to-anchor line.
 
-The node cables' tensions are read from the actuator's ``step`` calls (the model hands the
-actuator its tension array every step), so the correction starts with the model's first step; the
-effect wraps the actuator present when it is applied, so it must come after any effect that
-replaces the actuator, or stepping raises PhysicsError.
+The node cables' tensions are those the model writes into ``ModelSetup.tension`` each step
+before the force terms run, so the correction holds from the first step on, whichever actuator
+drives the cables.
 """
 from __future__ import annotations
 
@@ -29,13 +28,11 @@ from collections.abc import Mapping
 import numpy as np
 from numba import njit
 
-from physics.actuators import Actuator
 from physics.effects.base import Effect, ModelSetup
-from physics.errors import PhysicsError
 from physics.geometry import CABLE_NODES, node_positions
 from physics.parameters import Parameter
 
-__all__ = ["CableAnchors", "TensionTap", "anchor_points", "anchor_forces", "rest_shift"]
+__all__ = ["CableAnchors", "anchor_points", "anchor_forces", "rest_shift"]
 
 _A = np.ascontiguousarray(CABLE_NODES[:, 0])
 _B = np.ascontiguousarray(CABLE_NODES[:, 1])
@@ -131,25 +128,6 @@ def anchor_forces(nodes: np.ndarray, tension: np.ndarray, offset: float, stiffne
         _at_anchor(nodes, b, pb, (-s * ex, -s * ey, -s * ez), out)
 
 
-class TensionTap:
-    """The model's actuator, unchanged, that keeps a reference to the tension array it is stepped with."""
-
-    def __init__(self, inner: Actuator) -> None:
-        self.inner = inner
-        self.tension: np.ndarray | None = None
-
-    def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
-        self.tension = tension
-        self.inner.step(rest, speed, target, tension)
-
-    def follow(self, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
-               substeps: int, law: tuple) -> tuple[np.ndarray, np.ndarray]:
-        return self.inner.follow(lengths, rates, targets, rest0, substeps, law)
-
-    def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
-        return self.inner.speed_from_rest(rate)
-
-
 class CableAnchors(Effect):
     """Cables anchored ``anchor_offset`` [m] off the rod axis, on the end caps' rims (module docstring)."""
 
@@ -165,15 +143,9 @@ class CableAnchors(Effect):
         if offset <= 0.0:
             return
         delta = rest_shift(params["rod_length"], params["rod_space"], offset)
-        tap = TensionTap(setup.actuator)
-        setup.actuator = tap
-        stiffness = float(params["stiffnessActive"])
+        stiffness, tension = float(params["stiffnessActive"]), setup.tension
 
         def term(nodes: np.ndarray, velocities: np.ndarray, out: np.ndarray) -> None:
-            if setup.actuator is not tap:
-                raise PhysicsError("cable_anchors lost its actuator: list it after every effect that replaces "
-                                   "the actuator.")
-            if tap.tension is not None:     # None until the model's first step hands over its tensions
-                anchor_forces(nodes, tap.tension, offset, stiffness, delta, out)
+            anchor_forces(nodes, tension, offset, stiffness, delta, out)
 
         setup.force_terms.append(term)

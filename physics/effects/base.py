@@ -11,6 +11,11 @@ model before its world is built. Through the setup an effect may
 - add forces each physics step: ``force_terms``, kernels ``f(nodes, velocities, out)`` that add
   node forces (12 x 3) [N]; ``wrench_terms``, kernels ``f(q, dq, out)`` that add the rods'
   generalised forces (36,) (torques about a rod's own axis, which node forces cannot carry);
+  both run after the model has written this step's node-cable tensions into ``tension`` (24,)
+  [N], so a term may read them (cable anchors re-route them); ``contact_terms``, wrench kernels
+  that run after all of those, so that ``out`` then holds the rods' whole applied wrench (cables
+  and every effect's forces; gravity and contact excluded): laws that depend on the load a rod
+  puts on the ground (rolling resistance);
 - change the rods' spin: ``spin_damping`` (the axial damper [N m s]; None keeps the model's
   option) and ``orient``, which turns rods placed from nodes about their own axes (q (36,) -> q);
 - replace a component: the cable law's coefficients (``cable``), the actuator (``actuator``),
@@ -53,7 +58,9 @@ class ModelSetup:
     and steps its world. Shapes: gravity (3,) [m/s²], observation_offset (3,) [m]; point_masses
     holds (rod index, mass [kg], position along the rod axis from its centre [m]); ground_normal
     (3,) the unit normal of the ground plane through the world origin (z up, the data contract's
-    world frame: a sloped floor tilts the plane, gravity stays along −z)."""
+    world frame: a sloped floor tilts the plane, gravity stays along −z); tension (24,) [N]: the
+    node cables' tensions, which the model writes in place each step before the force and wrench
+    terms run (read them there, never replace the array)."""
 
     gravity: np.ndarray
     cap_radius: float
@@ -66,11 +73,13 @@ class ModelSetup:
     point_masses: list[tuple[int, float, float]] = field(default_factory=list)
     force_terms: list[ForceTerm] = field(default_factory=list)
     wrench_terms: list[WrenchTerm] = field(default_factory=list)
+    contact_terms: list[WrenchTerm] = field(default_factory=list)
     cap_length: float = 0.0
     spin_damping: float | None = None
     orient: Callable[[np.ndarray], np.ndarray] | None = None
     observation_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     ground_normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    tension: np.ndarray = field(default_factory=lambda: np.zeros(24))
 
     @classmethod
     def base(cls, params: Mapping[str, float], gravity: float, gains: MotorGains, dt: float) -> ModelSetup:

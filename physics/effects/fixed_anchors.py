@@ -30,9 +30,8 @@ import numpy as np
 from numba import njit
 from scipy.spatial.transform import Rotation
 
-from physics.effects.anchors import TensionTap, anchor_points, rest_shift
+from physics.effects.anchors import anchor_points, rest_shift
 from physics.effects.base import Effect, ModelSetup
-from physics.errors import PhysicsError
 from physics.geometry import CABLE_NODES, node_positions, rod_poses_from_nodes
 from physics.parameters import Parameter
 
@@ -182,17 +181,11 @@ class FixedCableAnchors(Effect):
             return
         local = body_anchors(params["rod_length"], params["rod_space"], offset)
         delta = rest_shift(params["rod_length"], params["rod_space"], offset)
-        tap = TensionTap(setup.actuator)
-        setup.actuator = tap
         half = np.full(6, 0.5 * float(params["rod_length"]))
-        stiffness, damping = float(params["stiffnessActive"]), float(params["damping"])
+        stiffness, damping, tension = float(params["stiffnessActive"]), float(params["damping"]), setup.tension
 
         def term(q: np.ndarray, dq: np.ndarray, out: np.ndarray) -> None:
-            if setup.actuator is not tap:
-                raise PhysicsError("fixed_anchors lost its actuator: list it after every effect that replaces "
-                                   "the actuator.")
-            if tap.tension is not None:
-                fixed_anchor_wrenches(q, dq, half, local, tap.tension, stiffness, damping, delta, out)
+            fixed_anchor_wrenches(q, dq, half, local, tension, stiffness, damping, delta, out)
 
         setup.wrench_terms.append(term)
         setup.spin_damping = 0.0

@@ -33,7 +33,6 @@ from physics.effects import (
     model_space,
 )
 from physics.effects.anchors import anchor_forces
-from physics.errors import PhysicsError
 from physics.geometry import node_positions
 from physics.tensegrity import T6Model
 
@@ -80,12 +79,24 @@ def test_anchors_at_zero_offset_are_the_bare_model() -> None:
     assert np.allclose(bare.node_positions(), anchored.node_positions(), atol=1e-9)
 
 
-def test_anchors_refuse_to_lose_their_actuator() -> None:
-    effects = [CableAnchors(), RateLimitedActuation()]
-    space = model_space(effects)
-    theta = space.as_array({**dict(zip(space.names, space.nominal, strict=True)), "anchor_offset": 0.05})
-    with pytest.raises(PhysicsError, match="after every effect that replaces the actuator"):
-        T6Model(theta, effects=effects).step(None, n=3)
+@pytest.mark.parametrize("anchors", [CableAnchors(), FixedCableAnchors()], ids=lambda e: e.name)
+def test_anchors_act_from_the_first_step_whatever_the_actuator(anchors) -> None:
+    """A freshly placed model and one that has stepped before and is set to the same state take the
+    same next steps: the anchors re-route the cables from the first step on, listed before or after
+    an effect that replaces the actuator."""
+    runs = []
+    for effects in ([anchors, RateLimitedActuation()], [RateLimitedActuation(), anchors]):
+        space = model_space(effects)
+        theta = space.as_array({**space.as_dict(None), anchors.parameters()[0].name: 0.05})
+        fresh, stepped = T6Model(theta, effects=effects), T6Model(theta, effects=effects)
+        fresh.set_nodes(node_positions(1.74, 0.45) + [0.0, 0.0, 1.0])
+        stepped.step(None, n=3)
+        stepped.set_state(fresh.get_state())
+        for model in (fresh, stepped):
+            model.step(None, n=5)
+        assert np.array_equal(fresh.node_positions(), stepped.node_positions())
+        runs.append(fresh.node_positions())
+    assert np.allclose(runs[0], runs[1], atol=1e-12)
 
 
 def test_superseded_drops_other_actuators() -> None:

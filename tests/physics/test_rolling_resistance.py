@@ -1,6 +1,6 @@
 """Rolling resistance (physics.effects.RollingResistance) by its law: only touching rods feel it,
-it opposes their turn about axes in the ground plane and never reverses it, and it takes energy
-out of a robot rolling on the ground."""
+in proportion to the load they put on the ground; it opposes their turn about axes in the ground
+plane and never reverses it, and it takes energy out of a robot rolling on the ground."""
 from __future__ import annotations
 
 import numpy as np
@@ -23,22 +23,37 @@ def _upright_rods(heights: list[float], spin: np.ndarray) -> tuple[np.ndarray, n
     return q, dq
 
 
-def _torques(q, dq, lever=0.1, weight=180.0, contact_height=0.065, normal=UP) -> np.ndarray:
-    """Torques (6 x 3) [N m] for rods of transverse inertia 1 and axial 0.01 kg m², dt 1 ms."""
-    out = np.zeros(36)
-    rolling_torques(q, dq, HALF, normal, contact_height, weight, lever, np.array([1.0, 0.01]), 1e-3, out)
+def _torques(q, dq, lever=0.1, contact_height=0.065, normal=UP, applied=None) -> np.ndarray:
+    """Torques (6 x 3) [N m] for rods of 9 kg, transverse inertia 1 and axial 0.01 kg m², under
+    gravity 10 m/s² along −z and applied forces ``applied`` (6 x 3) [N] (none by default), dt 1 ms."""
+    out = np.zeros((6, 6))
+    if applied is not None:
+        out[:, 3:] = applied
+    out = out.reshape(36)
+    rolling_torques(q, dq, HALF, normal, contact_height, np.full(6, 9.0), np.array([0.0, 0.0, -10.0]), lever,
+                    np.array([1.0, 0.01]), 1e-3, out)
     return out.reshape(6, 6)[:, :3]
 
 
-def test_only_touching_rods_feel_it_and_they_share_the_weight():
+def test_only_touching_rods_feel_it_in_proportion_to_their_weight():
     spin = np.array([2.0, -1.0, 3.0])
     q, dq = _upright_rods([0.06, 0.06, 0.5, 0.5, 0.5, 0.5], spin)
     torques = _torques(q, dq)
     assert np.all(torques[2:] == 0.0)
     perp = spin - (spin @ UP) * UP
-    for t in torques[:2]:   # each of the two touching caps carries half of 180 N: |τ| = 0.1 m × 90 N
+    for t in torques[:2]:   # each touching rod weighs 90 N on the ground: |τ| = 0.1 m × 90 N
         np.testing.assert_allclose(t, -9.0 * perp / np.linalg.norm(perp), rtol=1e-12)
     assert np.all(_torques(*_upright_rods([0.5] * 6, spin)) == 0.0)     # nothing touches: no torque
+
+
+def test_a_force_that_lifts_a_rod_lightens_it_and_one_that_presses_it_loads_it():
+    spin = np.array([2.0, -1.0, 0.0])
+    q, dq = _upright_rods([0.06] * 6, spin)
+    applied = np.zeros((6, 3))
+    applied[0, 2], applied[1, 2], applied[2, 2] = 50.0, -30.0, 120.0      # lift by 50 N, press by 30, lift it off
+    applied[3, 0] = 70.0                                                  # along the ground: no load change
+    sizes = np.linalg.norm(_torques(q, dq, applied=applied), axis=1)
+    np.testing.assert_allclose(sizes, [4.0, 12.0, 0.0, 9.0, 9.0, 9.0], rtol=1e-12)
 
 
 def test_it_never_acts_about_the_normal_and_never_reverses_a_turn():
@@ -46,7 +61,7 @@ def test_it_never_acts_about_the_normal_and_never_reverses_a_turn():
     assert np.all(_torques(q, dq) == 0.0)
     slow = np.array([1e-3, 0.0, 0.0])
     q, dq = _upright_rods([0.06] * 6, slow)
-    torques = _torques(q, dq, lever=1.0)            # μ_r N = 30 N m > I_t |ω| / dt = 1 N m: stops it in a step
+    torques = _torques(q, dq, lever=1.0)            # μ_r N = 90 N m > I_t |ω| / dt = 1 N m: stops it in a step
     np.testing.assert_allclose(torques, np.tile(-1000.0 * slow, (6, 1)), rtol=1e-12)
 
 
@@ -55,7 +70,7 @@ def test_a_lying_rods_spin_about_its_own_axis_is_stopped_with_its_axial_inertia(
     for i in range(6):       # rods along -y (rotation vector (π/2, 0, 0)) lying on the ground, spinning about y
         q[6 * i:6 * i + 6] = [np.pi / 2, 0.0, 0.0, 2.0 * i, 0.0, 0.06]
         dq[6 * i + 1] = 0.5
-    torques = _torques(q, dq, lever=1.0)            # I_a ω / dt = 5 N m < μ_r N = 30 N m
+    torques = _torques(q, dq, lever=1.0)            # I_a ω / dt = 5 N m < μ_r N = 90 N m
     np.testing.assert_allclose(torques, np.tile([0.0, -5.0, 0.0], (6, 1)), atol=1e-9)
 
 
