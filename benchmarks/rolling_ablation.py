@@ -14,7 +14,11 @@ distance [mm] between
 - DART at the testbed's true θ with the mismatch stage's laws at their true sizes (the
   tension-limited actuator, 6 cm cable anchors) and each of the two;
 - the same DART model with physics.effects.RollingResistance at each ``--levers`` μ_r [m] and the
-  testbed as made.
+  testbed as made;
+- the testbed's own anchor and contact laws in DART (physics.effects.FixedCableAnchors, anchors
+  fixed to the rods, and physics.effects.CylinderCaps, its flat-ended cylinders as contact shapes)
+  against the testbed without rolling friction, and with rolling resistance at each ``--levers``
+  against the testbed as made.
 
     .venv/bin/python benchmarks/rolling_ablation.py --seed 2
 """
@@ -28,7 +32,14 @@ import numpy as np
 from drift_probes import TIMES, at_times  # benchmarks/ (the script's folder)
 
 from physics import TrajectoryObjective, load_trajectory
-from physics.effects import CableAnchors, RollingResistance, TensionLimitedActuation, model_space
+from physics.effects import (
+    CableAnchors,
+    CylinderCaps,
+    FixedCableAnchors,
+    RollingResistance,
+    TensionLimitedActuation,
+    model_space,
+)
 
 LABELS = ("flop_0", "flop_1", "flop_2", "heldout_0")
 OFFSET = 0.06
@@ -44,11 +55,13 @@ def testbed_files(seed: int, ground_rolling: float) -> Path:
     return folder
 
 
-def dart_rollout(path: Path, lever: float) -> np.ndarray:
-    """Nodes (T x 12 x 3) [m] of DART's open-loop rollout of the flop in ``path`` at the testbed's θ."""
-    effects = [TensionLimitedActuation(), CableAnchors(), RollingResistance()]
+def dart_rollout(path: Path, lever: float, testbed_laws: bool = False) -> np.ndarray:
+    """Nodes (T x 12 x 3) [m] of DART's open-loop rollout of the flop in ``path`` at the testbed's θ
+    (re-aimed anchors and spheres, or with ``testbed_laws`` fixed anchors and cylinder caps)."""
+    anchors = FixedCableAnchors() if testbed_laws else CableAnchors()
+    effects = [TensionLimitedActuation(), anchors, *([CylinderCaps()] if testbed_laws else []), RollingResistance()]
     space = model_space(effects)
-    theta = space.as_array({**space.as_dict(None), "anchor_offset": OFFSET, "rolling_resistance": lever},
+    theta = space.as_array({**space.as_dict(None), anchors.parameters()[0].name: OFFSET, "rolling_resistance": lever},
                            check_bounds=False)
     with TrajectoryObjective([load_trajectory(path)], horizon="rollout", loss="squared", effects=effects,
                              n_workers=0) as objective:
@@ -78,8 +91,12 @@ def main(argv: list[str] | None = None) -> int:
                 "DART vs testbed without": apart(dart_rollout(ablated / f"{label}.nc", 0.0), without, time)}
         rows.update({f"DART + rolling {mu:g} m vs testbed": apart(dart_rollout(made / f"{label}.nc", mu),
                                                                 observed, time) for mu in args.levers})
+        rows["DART fixed, cylinders vs without"] = apart(dart_rollout(ablated / f"{label}.nc", 0.0, True), without,
+                                                         time)
+        rows.update({f"DART fixed, cyl., rolling {mu:g} m vs testbed": apart(
+            dart_rollout(made / f"{label}.nc", mu, True), observed, time) for mu in args.levers})
         for name, text in rows.items():
-            print(f"{label:10s} {name:34s} {text}", flush=True)
+            print(f"{label:10s} {name:44s} {text}", flush=True)
     return 0
 
 
