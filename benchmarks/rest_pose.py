@@ -2,7 +2,8 @@
 and how far DART moves from that pose with no command.
 
 For nominal testbed robot ``--seed`` settled for 3 s (benchmarks/testbed, its ground's rolling
-friction as made, or 0 with ``--ground-rolling 0``), this script prints
+friction as made, or 0 with ``--ground-rolling 0``), this script prints the height of its lowest
+nodes and
 
 - for each rod off the ground, the vertical net force [N] of its cables at the resting pose: the
   testbed's (anchors fixed to its rods, where settling left them), DART's re-aimed anchors
@@ -119,7 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     weight = rod_inertia(theta, Effects(), 0)[0] * 9.81
     off_ground = [i for i in range(6) if nodes[2 * i:2 * i + 2, 2].min() > 2 * theta["radius"]]
     print(f"nominal testbed robot {args.seed}, ground rolling friction {args.ground_rolling:g}; rod weight "
-          f"{weight:.2f} N")
+          f"{weight:.2f} N; lowest nodes {', '.join(f'{1e3 * z:.1f}' for z in np.sort(nodes[:, 2])[:3])} mm above "
+          f"the floor (cap radius {1e3 * theta['radius']:.0f} mm)")
     rows = {"testbed": net_vertical(anchors, tension)}
     for name, fixed in (("DART re-aimed anchors", False), ("DART fixed anchors", True)):
         at = dart_anchors(theta, nodes, fixed)
