@@ -24,6 +24,7 @@ import argparse
 import sys
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from physics import T6Model
 from physics.effects import (
@@ -77,7 +78,6 @@ def dart_anchors(theta: dict, nodes: np.ndarray, fixed: bool) -> np.ndarray:
         return anchor_points(nodes, OFFSET)
     local = body_anchors(theta["rod_length"], theta["rod_space"], OFFSET)
     q = orient_rods(rod_poses_from_nodes(nodes)[0], local, OFFSET, 0.5 * theta["rod_length"]).reshape(6, 6)
-    from scipy.spatial.transform import Rotation
     rot = Rotation.from_rotvec(q[:, :3]).as_matrix()
     out = np.empty_like(local)
     for side in (0, 1):
