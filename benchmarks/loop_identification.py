@@ -18,6 +18,12 @@ then the same for the stage's least-squares θ (a point, no interval), and how m
 fits the bare T6 than its best evaluation (the model error the posterior's discrepancy floor must
 cover, belief.noise).
 
+**Weighed**: a trajectory cannot tell the absolute masses and forces (physics.scaling: every mass
+and force times λ gives the same motion, but for the rods' spin damping and the motor driver's
+speed gain). The same counts after moving the best θ and every cell of P along that symmetry to
+the truth's robot mass M(θ*), as a researcher who weighed the robot would (intervals of the moved
+cells under the same P; no verdicts).
+
     .venv/bin/python benchmarks/loop_identification.py --seeds 2
     .venv/bin/python benchmarks/loop_identification.py --summarize .cache/loop/rows.jsonl
 
@@ -37,12 +43,13 @@ from pathlib import Path
 import numpy as np
 from jsonl_rows import read_rows
 
-from belief.posterior import PosteriorConfig
+from belief.posterior import PosteriorConfig, marginals
 from belief.result import IdentificationResult
 from criticism.diagnose import identify_from, split_masks
 from criticism.mismatch import MismatchConfig
 from criticism.stage_journal import journalled_stage
-from physics import TrajectoryObjective, load_trajectory
+from physics import ParameterSpace, TrajectoryObjective, load_trajectory
+from physics.scaling import robot_mass, weighed
 
 LABELS = ("flop_0", "flop_1", "heldout_0")
 INERT = ("motor_radius", "motor_friction", "motor_inertia")
@@ -72,6 +79,36 @@ def belief_row(result: IdentificationResult, truth: dict[str, float]) -> dict[st
         lo, hi, mean = float(s["lower"]), float(s["upper"]), float(s["mean"])
         out[n] = {"best": best[n], "mean": abs(mean - truth[n]) / abs(truth[n]), "verdict": belief.verdicts[n][0],
                   "lower": lo, "upper": hi, "holds": bool(lo <= truth[n] <= hi)}
+    return out
+
+
+def _true_mass(truth: dict[str, float]) -> float:
+    """M(θ*) [kg], the robot mass a researcher would weigh."""
+    t6 = ParameterSpace.t6()
+    return float(robot_mass(t6, t6.as_array({**dict(zip(t6.names, t6.nominal, strict=True)), **truth})))
+
+
+def mass_scale(result: IdentificationResult, truth: dict[str, float]) -> float:
+    """λ = M(θ*) / M(best θ): how far the best θ sits from the truth along the mass-scale symmetry."""
+    assert result.belief is not None
+    space = result.belief.space
+    return _true_mass(truth) / float(robot_mass(space, np.asarray(result.best_theta.values, float)))
+
+
+def weighed_row(result: IdentificationResult, truth: dict[str, float]) -> dict[str, dict]:
+    """belief_row's numbers (no verdicts) after moving the best θ and P's cells to the weighed mass M(θ*)."""
+    belief = result.belief
+    assert belief is not None
+    mass = _true_mass(truth)
+    space = belief.space
+    best = point_row(space.names, weighed(space, np.asarray(result.best_theta.values, float), mass), truth)
+    summary = marginals(belief.P, weighed(space, belief.theta, mass), space, level=belief.level)
+    out = {}
+    for n in _shared(space.names, truth):
+        s = summary.sel(parameter=n)
+        lo, hi, mean = float(s["lower"]), float(s["upper"]), float(s["mean"])
+        out[n] = {"best": best[n], "mean": abs(mean - truth[n]) / abs(truth[n]), "lower": lo, "upper": hi,
+                  "holds": bool(lo <= truth[n] <= hi)}
     return out
 
 
@@ -116,6 +153,8 @@ def run_one(seed: int, noise: float, budget: int, n_workers: int, journals: Path
            "stage_augmented": point_row(starts["augmented"][0].space.names, theta, truth),
            "seconds": time.perf_counter() - start}
     row.update({key: belief_row(result, truth) for key, result in results.items()})
+    row.update({f"{key}_weighed": weighed_row(result, truth) for key, result in results.items()})
+    row["mass_scale"] = {key: mass_scale(result, truth) for key, result in results.items()}
     row["sigma2"] = {key: _noise(result) for key, result in results.items()}
     if "bare" in results:
         row["truth_excess"] = truth_error / row["sigma2"]["bare"]["best_error"] - 1.0
@@ -137,6 +176,17 @@ def _counts(rows: dict[str, dict]) -> str:
             f"{sum(v['holds'] for v in rows.values())} of {len(rows)} hold θ*")
 
 
+def _weighed_counts(rows: dict[str, dict]) -> str:
+    best = sorted(n for n, v in rows.items() if v["best"] <= TOLERANCE)
+    width = np.median([(v["upper"] - v["lower"]) / (0.5 * (v["upper"] + v["lower"])) for v in rows.values()])
+    mean = sum(v["mean"] <= TOLERANCE for v in rows.values())
+    holds = sum(v["holds"] for v in rows.values())
+    far = sorted(rows, key=lambda n: -rows[n]["best"])[:3]
+    return (f"best {len(best):2d} within 2 % ({', '.join(best)}), mean {mean}; every interval: {holds} of "
+            f"{len(rows)} hold θ*, median width {width:.1%}; farthest: "
+            + ", ".join(f"{n} {rows[n]['best']:.1%}" for n in far))
+
+
 def summarize(rows: list[dict]) -> None:
     for r in rows:
         print(f"seed {r['seed']} (noise {r['noise']:g}, budget {r['budget']}, δ_0 {_floor(r):g}, kept "
@@ -154,6 +204,12 @@ def summarize(rows: list[dict]) -> None:
             if held:
                 print("            " + "; ".join(f"{n} [{r[key][n]['lower']:.4g}, {r[key][n]['upper']:.4g}] "
                                                  f"{r[key][n]['verdict']}" for n in held))
+        if "mass_scale" in r:
+            print("  best θ's mass scale λ = M(θ*) / M(best θ): "
+                  + ", ".join(f"{k} {v:.3f}" for k, v in r["mass_scale"].items()))
+        for key in ("bare_weighed", "augmented_weighed"):
+            if key in r:
+                print(f"  {key:18s} {_weighed_counts(r[key])}")
         for key in ("stage_bare", "stage_augmented"):
             within = sorted(n for n, v in r[key].items() if v <= TOLERANCE)
             print(f"  {key:15s} least-squares θ within 2 %: {len(within)} ({', '.join(within)})")
@@ -178,6 +234,14 @@ def totals(rows: list[dict], floor: float) -> None:
               f"{np.median(mean):g}; claimed intervals holding θ*: {sum(v['holds'] for v in claimed)} of "
               f"{len(claimed)}; every 90 % interval: {sum(every)} of {len(every)} hold θ*; target met on {target} "
               f"of {len(rows)} seeds")
+    for key in ("bare_weighed", "augmented_weighed"):
+        weighed_rows = [r[key] for r in rows if key in r]
+        if weighed_rows:
+            best = [sum(v["best"] <= TOLERANCE for v in w.values()) for w in weighed_rows]
+            every = [v["holds"] for w in weighed_rows for v in w.values()]
+            print(f"  {key:18s} within 2 %: best θ median {np.median(best):g} (each {best}); every 90 % interval: "
+                  f"{sum(every)} of {len(every)} hold θ*; at least 5 within 2 % on {sum(b >= 5 for b in best)} of "
+                  f"{len(best)} seeds")
 
 
 def main(argv: list[str] | None = None) -> int:
