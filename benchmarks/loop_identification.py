@@ -22,7 +22,7 @@ cover, belief.noise).
 and force times λ gives the same motion, but for the rods' spin damping and the motor driver's
 speed gain). The same counts after moving the best θ and every cell of P along that symmetry to
 the truth's robot mass M(θ*), as a researcher who weighed the robot would (intervals of the moved
-cells under the same P; no verdicts).
+cells under the same P, the best cell's local width moved with it; no verdicts).
 
     .venv/bin/python benchmarks/loop_identification.py --seeds 2
     .venv/bin/python benchmarks/loop_identification.py --summarize .cache/loop/rows.jsonl
@@ -45,11 +45,12 @@ from jsonl_rows import read_rows
 
 from belief.posterior import PosteriorConfig, marginals
 from belief.result import IdentificationResult
+from belief.spread import CellSpread
 from criticism.diagnose import identify_from, split_masks
 from criticism.mismatch import MismatchConfig
 from criticism.stage_journal import journalled_stage
 from physics import ParameterSpace, TrajectoryObjective, load_trajectory
-from physics.scaling import robot_mass, weighed
+from physics.scaling import mass_exponents, robot_mass, weighed
 
 LABELS = ("flop_0", "flop_1", "heldout_0")
 INERT = ("motor_radius", "motor_friction", "motor_inertia")
@@ -102,7 +103,11 @@ def weighed_row(result: IdentificationResult, truth: dict[str, float]) -> dict[s
     mass = _true_mass(truth)
     space = belief.space
     best = point_row(space.names, weighed(space, np.asarray(result.best_theta.values, float), mass), truth)
-    summary = marginals(belief.P, weighed(space, belief.theta, mass), space, level=belief.level)
+    spread = belief.spread
+    if spread is not None:                      # the best cell's local width, moved with its cell: std λ^p
+        lam = mass / float(robot_mass(space, belief.theta[spread.cell]))
+        spread = CellSpread(spread.cell, tuple(np.asarray(spread.std) * lam ** mass_exponents(space)))
+    summary = marginals(belief.P, weighed(space, belief.theta, mass), space, level=belief.level, spread=spread)
     out = {}
     for n in _shared(space.names, truth):
         s = summary.sel(parameter=n)
