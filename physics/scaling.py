@@ -16,7 +16,7 @@ weighed robot supplies the missing scale::
 
     λ = M_weighed / M(θ),       M(θ) = 6 m_rod(θ) (+ point_mass)          [kg]
 
-and :func:`scale_masses` moves any θ to the equivalent one with the weighed mass.
+and :func:`weighed` moves any θ to the equivalent one with the weighed mass.
 """
 from __future__ import annotations
 
@@ -93,7 +93,7 @@ def robot_mass(space: ParameterSpace, theta: np.ndarray) -> np.ndarray:
                if n not in space.names]
     if missing:
         raise ParameterError(f"robot_mass needs the T6 rod parameters; the space lacks {missing}.")
-    index = {n: space.names.index(n) for n in space.names}
+    index = {n: j for j, n in enumerate(space.names)}
     masses = []
     for row in th:
         rod = rod_mass_properties(*(row[index[n]] for n in ("density", "radius", "density_mp", "radius_mp",
