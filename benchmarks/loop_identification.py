@@ -41,6 +41,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 from jsonl_rows import read_rows
 
 from belief.posterior import PosteriorConfig, marginals
@@ -73,13 +74,20 @@ def belief_row(result: IdentificationResult, truth: dict[str, float]) -> dict[st
     assert belief is not None
     names = tuple(belief.space.names)
     best = point_row(names, np.asarray(result.best_theta.values, float), truth)
-    summary = belief.marginals()
+    out = _interval_rows(belief.marginals(), best, truth)
+    for n, row in out.items():
+        row["verdict"] = belief.verdicts[n][0]
+    return out
+
+
+def _interval_rows(summary: xr.Dataset, best: dict[str, float], truth: dict[str, float]) -> dict[str, dict]:
+    """Per parameter of ``best`` (point_row): its error, the marginal mean's, the interval, whether it holds θ*."""
     out = {}
-    for n in _shared(names, truth):
+    for n in best:
         s = summary.sel(parameter=n)
         lo, hi, mean = float(s["lower"]), float(s["upper"]), float(s["mean"])
-        out[n] = {"best": best[n], "mean": abs(mean - truth[n]) / abs(truth[n]), "verdict": belief.verdicts[n][0],
-                  "lower": lo, "upper": hi, "holds": bool(lo <= truth[n] <= hi)}
+        out[n] = {"best": best[n], "mean": abs(mean - truth[n]) / abs(truth[n]), "lower": lo, "upper": hi,
+                  "holds": bool(lo <= truth[n] <= hi)}
     return out
 
 
@@ -108,13 +116,7 @@ def weighed_row(result: IdentificationResult, truth: dict[str, float]) -> dict[s
         lam = mass / float(robot_mass(space, belief.theta[spread.cell]))
         spread = CellSpread(spread.cell, tuple(np.asarray(spread.std) * lam ** mass_exponents(space)))
     summary = marginals(belief.P, weighed(space, belief.theta, mass), space, level=belief.level, spread=spread)
-    out = {}
-    for n in _shared(space.names, truth):
-        s = summary.sel(parameter=n)
-        lo, hi, mean = float(s["lower"]), float(s["upper"]), float(s["mean"])
-        out[n] = {"best": best[n], "mean": abs(mean - truth[n]) / abs(truth[n]), "lower": lo, "upper": hi,
-                  "holds": bool(lo <= truth[n] <= hi)}
-    return out
+    return _interval_rows(summary, best, truth)
 
 
 def _noise(result: IdentificationResult) -> dict[str, float]:
