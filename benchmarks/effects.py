@@ -163,28 +163,31 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flo
 
 
 def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
-            mismatch: bool = False, flops_version: int = 1) -> dict:
+            mismatch: bool = False, flops_version: int = 1, read_contact: bool = False) -> dict:
     if source == "testbed":
         data, truth_names, true_values = testbed_data(name, seed, flops_version)
         row = diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
-                           passes=max(1, len(truth_names)))
+                           passes=max(1, len(truth_names)), read_contact=read_contact)
         return {**row, "flops_version": flops_version}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
     return diagnose_row(name, seed, budget, data, [e.name for e in effects],
                         {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
-                        mismatch=mismatch)
+                        mismatch=mismatch, read_contact=read_contact)
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
-                 held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None) -> dict:
-    """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``) in
-    ``passes`` passes (default: 2 for a mix, else 1); the benchmark's row (JSON-ready)."""
+                 held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None,
+                 read_contact: bool = False) -> dict:
+    """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``, the
+    contact read from the flops first if ``read_contact``) in ``passes`` passes (default: 2 for a
+    mix, else 1); the benchmark's row (JSON-ready)."""
     passes = passes or (2 if name in MIXES else 1)
     start = time.perf_counter()
-    config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None)
+    config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None,
+                            read_contact=read_contact)
     d = diagnose(data, held_out=[2], config=config, progress=False)
     first = d.passes[0].criticism
     top = first.ranking[0] if first.ranking else None
@@ -203,7 +206,8 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "true_values": true_values, "held_out": held_out, "larger": larger, "mismatch": mismatch,
            "estimates": d.passes[0].estimates(),
            "stage": None if d.mismatch is None else {"kept": [e.name for e in d.mismatch.effects],
-                                                     "ratios": d.mismatch.ratios()}}
+                                                     "ratios": d.mismatch.ratios()},
+           "read_contact": read_contact, "contact": None if d.contact is None else d.contact.as_dict()}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
     return row
@@ -334,8 +338,9 @@ def print_rows(rows: list[dict]) -> None:
 
 
 def _key(row: dict) -> tuple:
-    """A run's identity: data set, seed and protocol (held-out flop, budget, flops version)."""
-    return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"), row.get("flops_version", 1))
+    """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact read)."""
+    return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"), row.get("flops_version", 1),
+            row.get("read_contact", False))
 
 
 def latest_rows(rows: list[dict]) -> list[dict]:
@@ -361,6 +366,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="default: every catalog effect, none, outside, mix, actuator+contact (own); every "
                     "testbed data set (testbed)")
     ap.add_argument("--mismatch", action="store_true", help="run diagnose's mismatch stage first")
+    ap.add_argument("--read-contact", action="store_true", help="read the contact law from the flops first "
+                    "(criticism.contact; testbed data; give such runs their own --out)")
     ap.add_argument("--flops-version", type=int, default=1, help="of the testbed's flops (testbed.datasets: "
                     "2 draws each flop's actuation from the seed; give such runs their own --out)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
@@ -385,13 +392,13 @@ def main(argv: list[str] | None = None) -> int:
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds
             and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget
-            and r.get("flops_version", 1) == args.flops_version]
+            and r.get("flops_version", 1) == args.flops_version and r.get("read_contact", False) == args.read_contact]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
-            if (name, seed, args.held_out, args.budget, args.flops_version) in done:
+            if (name, seed, args.held_out, args.budget, args.flops_version, args.read_contact) in done:
                 continue
-            row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version),
-                   "budget": args.budget}
+            row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version,
+                             args.read_contact), "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")

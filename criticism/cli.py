@@ -54,6 +54,9 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
                    help="skip the mismatch stage, which by default first absorbs the engine mismatch: re-tunes the T6 "
                         "and adds the component changes (actuator law, cable anchors, end caps) that make it "
                         "reproduce the data (criticism.mismatch); the effects are then searched on that model")
+    p.add_argument("--read-contact", action="store_true",
+                   help="first read the end caps' shape and the markers' offset from the flops (criticism.contact): "
+                        "flat ends join the model, and an evident offset is added before identifying")
     p.add_argument("--skip-checks", action="store_true",
                    help="do not stop on the data checks' errors, nor on what diagnose cannot use (a robot not at "
                         "rest at the start, jumping markers; tensegrid check; docs/diagnose.md)")
@@ -109,7 +112,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
         print(f"{path}: " + "; ".join(describe_trajectory(ds)))
     effects = None if args.effects is None else list(effects_by_name(args.effects))
     config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates, horizon=args.horizon,
-                            seed=args.seed, mismatch=None if args.no_mismatch else MismatchConfig())
+                            seed=args.seed, mismatch=None if args.no_mismatch else MismatchConfig(),
+                            read_contact=args.read_contact)
     _before_run(args, config)
     with output_dir(args.out):          # removed again if the run fails before writing into it
         diagnosis = run_with_journals(

@@ -19,7 +19,9 @@ inadequacy, not estimates (:func:`retuned_at_bounds`).
 Before the first identification, effects the data show directly are added without a search
 (:func:`shown_at_rest`: each catalog effect bound to the data, Effect.bind, that is then
 Effect.evident, such as a floor tilted by degrees under the resting robot): a search would only
-weigh their dynamics, while the resting pose already settles them.
+weigh their dynamics, while the resting pose already settles them. With ``read_contact`` the
+flops' contact law goes first (criticism.contact): flat end caps join the model before the
+mismatch stage, and the observations' offset that law reads joins it when evident.
 
 Passes repeat (``passes``) until criticism finds nothing. Held-out trajectories never enter an
 identification; the effect fit of criticism uses only the fit trajectories. With one trajectory
@@ -48,6 +50,7 @@ from belief.identify import identify
 from belief.posterior import PosteriorConfig
 from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.result import IdentificationResult
+from criticism.contact import ContactReading, read_contact
 from criticism.errors import CriticismError
 from criticism.mismatch import MismatchConfig, MismatchReport, superseded
 from criticism.residuals import residual_dataset, residual_summary
@@ -73,7 +76,9 @@ class DiagnoseConfig:
     identification, whose components the identification and the search then keep (None: off). It
     is on by default: measured data always carry engine mismatch, and on the engine's own data it
     keeps nothing (tests/criticism/test_mismatch.py), so the rest of the loop is as without it;
-    measure_at_rest: add the effects the resting robot shows (:func:`shown_at_rest`) before identifying."""
+    measure_at_rest: add the effects the resting robot shows (:func:`shown_at_rest`) before identifying;
+    read_contact: read the end caps' shape and the observations' offset from the flops first
+    (criticism.contact; off by default until the benchmarks measured it on every data set)."""
 
     passes: int = 2
     budget: int = 40
@@ -85,6 +90,7 @@ class DiagnoseConfig:
     bound_tolerance: float = AT_BOUND_TOLERANCE
     mismatch: MismatchConfig | None = field(default_factory=MismatchConfig)
     measure_at_rest: bool = True
+    read_contact: bool = False
 
     def __post_init__(self) -> None:
         if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
@@ -143,8 +149,9 @@ class Pass:
 class Diagnosis:
     """Result of :func:`diagnose`: the passes, the final effects, the held-out trajectories
     (indices; empty with one trajectory: then errors are in-sample), the first identification's
-    Belief (None if it made none), the objective's settings, the mismatch stage's report and the
-    effects measured at rest (:func:`shown_at_rest`, bound to the data)."""
+    Belief (None if it made none), the objective's settings, the mismatch stage's report, the
+    effects measured at rest (:func:`shown_at_rest`, bound to the data) and the contact read from
+    the flops (criticism.contact; None when not read)."""
 
     passes: list[Pass]
     effects: tuple[str, ...]
@@ -153,6 +160,7 @@ class Diagnosis:
     settings: dict[str, Any]
     mismatch: MismatchReport | None = None
     measured: tuple[Effect, ...] = ()
+    contact: ContactReading | None = None
 
     @property
     def found(self) -> list[str]:
@@ -161,8 +169,10 @@ class Diagnosis:
 
     @property
     def first_model(self) -> tuple[Effect, ...]:
-        """The effects of the model of pass 1: the mismatch stage's components, then those measured at rest."""
-        return (self.mismatch.effects if self.mismatch is not None else ()) + self.measured
+        """The effects of the model of pass 1: the components the contact reading put in, the
+        mismatch stage's, then those measured at rest."""
+        read = self.contact.components if self.contact is not None else ()
+        return read + (self.mismatch.effects if self.mismatch is not None else ()) + self.measured
 
 
 def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -239,6 +249,13 @@ def shown_at_rest(trajectories: Sequence[xr.Dataset], effects: Sequence[Effect])
     return tuple(b for b in bound if b.evident)
 
 
+def _with_read_bias(tries: Sequence[Effect], contact: ContactReading | None) -> list[Effect]:
+    """``tries`` with the catalog's sensor bias replaced by the one the flops' contact law reads."""
+    if contact is None or contact.bias is None:
+        return list(tries)
+    return [contact.bias if e.name == contact.bias.name else e for e in tries]
+
+
 def _warm(stage: MismatchReport | None, shown: Sequence[Effect]) -> np.ndarray | None:
     """The first identification's warm start: the stage's θ, extended by the measured values of the
     effects shown at rest (their parameters' nominal values); None without a stage that kept or
@@ -273,10 +290,14 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
     try:
         fit, held = split_masks(full.segments, held_idx)
         fit_objective = full.select(fit_idx)
-        stage = (journalled_stage(full, fit, held_idx, config=config.mismatch, journal_dir=journals, progress=progress)
+        contact = read_contact(data) if config.read_contact else None
+        read = contact.components if contact is not None else ()
+        tries = _with_read_bias(tries, contact)
+        stage = (journalled_stage(full.with_effects(read), fit, held_idx, config=config.mismatch,
+                                  journal_dir=journals, progress=progress)
                  if config.mismatch is not None else None)
         shown = shown_at_rest(data, superseded(tries, stage.effects if stage else ())) if config.measure_at_rest else ()
-        added: tuple[Effect, ...] = (stage.effects if stage is not None else ()) + shown
+        added: tuple[Effect, ...] = read + (stage.effects if stage is not None else ()) + shown
         tries = superseded(tries, added)
         warm0 = _warm(stage, shown)
         ident = identify_from(fit_objective.with_effects(added), warm0, budget=config.budget,
@@ -304,8 +325,9 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
         settings = {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
                     "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
                     "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,
+                    "read_contact": config.read_contact,
                     "fit_trajectories": fit_idx, "segments": list(full.segments)}
-        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown)
+        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown, contact)
     finally:
         full.close()
 

@@ -112,6 +112,11 @@ def write_diagnose_report(out: str | Path, d: Diagnosis, trajectories: Sequence[
     page.code(command)
     page.table(["setting", "value"], _settings(d))
     data_section(page, list(args.data), trajectories, skipped=bool(getattr(args, "skip_checks", False)))
+    if d.contact is not None:
+        page.section("Contact read from the flops")
+        page.paragraph("The heights of the nodes touching the floor, against their rods' tilt, tell the end caps' "
+                       "shape and, for flat ends, the observations' offset (physics.contact_law).")
+        page.code(d.contact.text())
     if d.mismatch is not None:
         page.section("Engine mismatch")
         kept = ", ".join(e.name for e in d.mismatch.effects)
@@ -121,10 +126,10 @@ def write_diagnose_report(out: str | Path, d: Diagnosis, trajectories: Sequence[
                        f"drift ×{ratios['drift']:.2f} (after / before). The passes below start from this model.")
         page.code(d.mismatch.text())
     if d.measured:
-        page.section("Measured at rest")
+        page.section("Measured at rest or read from the flops")
         sizes = "; ".join(f"{e.name} (" + ", ".join(f"{q.name} = {q.nominal:.4g} {q.unit}" for q in e.parameters())
                           + ")" for e in d.measured)
-        page.paragraph("The resting robot shows these effects directly, so they joined the model before the first "
+        page.paragraph("The data show these effects directly, so they joined the model before the first "
                        f"identification, their parameters kept near the measurement: {sizes}.")
     page.section("Passes")
     for k, p in enumerate(d.passes, 1):

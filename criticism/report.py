@@ -40,8 +40,11 @@ __all__ = ["diagnosis_text", "diagnosis_record", "write_report"]
 def diagnosis_text(d: Diagnosis) -> str:
     """Ranking per pass, the parameters the re-tuning left at a bound (model inadequacy) and the
     held-out error before and after, as plain text (after the mismatch stage's, when it ran)."""
-    out = [] if d.mismatch is None else [d.mismatch.text()]
-    out += [f"measured at rest: {e.name} ({_measured(e)}), added before identifying" for e in d.measured]
+    out = [] if d.contact is None else [d.contact.text()]
+    out += [] if d.mismatch is None else [d.mismatch.text()]
+    read = d.contact.bias if d.contact is not None else None
+    out += [f"{'read from the flops' if e is read else 'measured at rest'}: {e.name} ({_measured(e)}), added before "
+            "identifying" for e in d.measured]
     scope = (f"held-out trajectories {d.held_out}" if d.held_out
              else "one trajectory: odd windows held out from the effect fit, errors in-sample")
     for k, p in enumerate(d.passes, 1):
@@ -99,10 +102,12 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
     """The JSON-able record of diagnosis.json: settings, and per pass the criticism, θ̃ ("theta"),
     the parameters at a bound after the re-tuning ("at_bounds", belief.bounds.AtBound.as_dict),
     the held-out errors and the re-identified estimates; "mismatch": the mismatch stage's record or None;
-    "measured": the configs of the effects measured at rest."""
+    "measured": the configs of the effects measured at rest; "contact": the contact read from the
+    flops (criticism.contact) or None."""
     return {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
             "mismatch": None if d.mismatch is None else d.mismatch.as_dict(),
             "measured": [e.config() for e in d.measured],
+            "contact": None if d.contact is None else d.contact.as_dict(),
             "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
                         "added": p.added, "held_after": p.held_after, "estimates": p.estimates(),
                         "theta_after": None if p.theta_after is None

@@ -11,7 +11,14 @@ from physics.effects.world import MEASURED_CONTACT_WIDTH, contact_excess
 from physics.errors import ParameterError
 from physics.parameters import Parameter
 
-__all__ = ["SensorBias"]
+__all__ = ["SensorBias", "EVIDENT_OFFSET", "FLOPS_OFFSET_WIDTH"]
+
+#: offset [m] beyond which a bias read from the flops' contact law is evident (SensorBias.evident):
+#: twice the largest offset that law reads on the foreign testbed's data without one (2.4 mm over
+#: 24 data sets, benchmarks/contact_law.py)
+EVIDENT_OFFSET = 0.005
+#: ± half-width [m] of the box around a bias read from the flops' contact law
+FLOPS_OFFSET_WIDTH = 0.005
 
 
 class SensorBias(Effect):
@@ -23,26 +30,42 @@ class SensorBias(Effect):
     h = r + b, r the caps' contact radius (the nominal rod radius), so b = h − r
     (physics.effects.world.contact_excess). The parameter then keeps a box of ± ``width`` around
     it: a fit of the dynamics cannot sink the model's robot into the floor (or lift it off) where
-    the resting robot shows it is not."""
+    the resting robot shows it is not.
+
+    ``from_flops``: the bias was read from the flops instead (physics.contact_law: the flat-end law
+    h = b + r cos α, which separates b from r where the rest pose cannot; criticism.contact). Such a
+    bias is evident beyond EVIDENT_OFFSET when its box leaves out zero, and joins the model
+    without a search."""
 
     name = "sensor_bias"
     description = "constant vertical offset of the observed positions"
 
-    def __init__(self, measured: float | None = None, width: float = MEASURED_CONTACT_WIDTH) -> None:
+    def __init__(self, measured: float | None = None, width: float = MEASURED_CONTACT_WIDTH,
+                 from_flops: bool = False) -> None:
         if measured is not None and not np.isfinite(measured):
             raise ParameterError(f"SensorBias measured must be a finite offset [m], got {measured!r}.")
         if not (np.isfinite(width) and width > 0):
             raise ParameterError(f"SensorBias width must be a positive length [m], got {width!r}.")
+        if from_flops and measured is None:
+            raise ParameterError("SensorBias(from_flops=True) needs the measured offset [m].")
         self.measured = None if measured is None else float(measured)
         self.width = float(width)
+        self.from_flops = bool(from_flops)
 
     def parameters(self) -> tuple[Parameter, ...]:
         if self.measured is None:
             return (Parameter("sensor_bias_z", "m", 0.0, -0.05, 0.05, "vertical offset of the observations",
                               minimum=-np.inf),)
-        b = self.measured
+        b, source = self.measured, "read from the flops" if self.from_flops else "measured at rest"
         return (Parameter("sensor_bias_z", "m", b, b - self.width, b + self.width,
-                          "vertical offset of the observations (measured at rest)", minimum=-np.inf),)
+                          f"vertical offset of the observations ({source})", minimum=-np.inf),)
+
+    @property
+    def evident(self) -> bool:
+        """A bias read from the flops beyond EVIDENT_OFFSET whose box leaves out zero; one measured
+        at rest never is (there it is one number with the caps' radius)."""
+        return (self.from_flops and self.measured is not None
+                and abs(self.measured) > max(EVIDENT_OFFSET, self.width))
 
     @property
     def off(self) -> dict[str, float] | None:
@@ -61,4 +84,5 @@ class SensorBias(Effect):
     def config(self) -> dict:
         if self.measured is None:
             return {"effect": self.name}
-        return {"effect": self.name, "measured": self.measured, "width": self.width}
+        flops = {"from_flops": True} if self.from_flops else {}
+        return {"effect": self.name, "measured": self.measured, "width": self.width, **flops}
