@@ -5,11 +5,10 @@ The model touches the ground with spheres at the nodes. When the contact nodes' 
 the flat-end law h = b + r cos α instead (``ContactLaw.shape == "flat"``), the model takes the
 flat ends (:class:`physics.effects.CylinderCaps`) before anything is fitted, and only then does
 the law's offset b mean what a :class:`physics.effects.SensorBias` means: the observations' shift
-along the floor's normal. That bias is bound with ``from_flops`` and a box of ±
-max(FLOPS_OFFSET_WIDTH, 3 standard errors), and is evident (it joins the model without a search,
-as a slope measured at rest does) when it exceeds EVIDENT_OFFSET and its box leaves out zero
-(SensorBias.evident). Under the sphere law
-b and r are one number, and nothing is read.
+along the floor's normal. That bias is bound with ``from_flops`` and a box of
+± max(FLOPS_OFFSET_WIDTH, 3 standard errors), and is evident (it joins the model without a
+search, as a slope measured at rest does) when it exceeds EVIDENT_OFFSET and its box leaves out
+zero (SensorBias.evident). Under the sphere law b and r are one number, and nothing is read.
 """
 from __future__ import annotations
 

@@ -39,6 +39,8 @@ def test_flat_ends_bring_the_caps_and_an_evident_offset_spheres_bring_nothing(fl
     spheres = read_contact(_flops([], {}))
     assert spheres.components == () and spheres.bias is None and spheres.law is not None
     assert spheres.law.shape == "sphere"
+    short = read_contact([simulate(None, controller=FlopController(0.0), duration=0.05, noise=2e-4, seed=0)])
+    assert short.law is None and short.components == () and "too few contact samples" in short.text()
     assert not SensorBias(measured=OFFSET).evident                          # at rest it is one number with r
     assert not SensorBias(measured=0.003, width=0.002, from_flops=True).evident   # under EVIDENT_OFFSET
     assert not SensorBias(measured=0.008, width=0.01, from_flops=True).evident    # its box holds zero
