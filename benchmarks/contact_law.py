@@ -10,6 +10,8 @@ engine's sensor bias). Then per source the shapes chosen and, for the testbed, t
 
     .venv/bin/python benchmarks/contact_law.py --seeds 3
     .venv/bin/python benchmarks/contact_law.py --seeds 2 --first-seed 3 --testbed marker_offset nominal --own
+
+``--testbed`` or ``--own`` with no names skips that source.
 """
 from __future__ import annotations
 
@@ -43,6 +45,7 @@ def own_reading(name: str, seed: int) -> tuple[ContactLaw | None, float]:
 
 
 def line(source: str, name: str, seed: int, law: ContactLaw | None, truth: float) -> str:
+    """One printed row: the reading (lengths in mm) next to the true offset."""
     if law is None:
         return f"{source:8s} {name:18s} {seed:4d}  no contact samples"
     b = "      -" if law.offset is None else f"{1e3 * law.offset:+7.1f}"
@@ -51,6 +54,7 @@ def line(source: str, name: str, seed: int, law: ContactLaw | None, truth: float
 
 
 def summary(rows: list[tuple[str, str, int, ContactLaw | None, float]]) -> None:
+    """Per source: the shapes chosen, and |b − b*| over the data sets with and without an offset."""
     for source in sorted({r[0] for r in rows}):
         mine = [r for r in rows if r[0] == source]
         shapes = {s: sum(1 for r in mine if r[3] is not None and r[3].shape == s) for s in ("flat", "sphere", "undecided")}
@@ -68,12 +72,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--testbed", nargs="*", default=list(TESTBED), help="testbed data sets (none: skip)")
-    ap.add_argument("--own", nargs="*", default=None, help="own-engine scenarios (default: %s)" % ", ".join(OWN))
+    ap.add_argument("--own", nargs="*", default=list(OWN), help="own-engine scenarios (none: skip)")
     ap.add_argument("--out", default=None, help="also append the readings here (JSON lines)")
     args = ap.parse_args(argv)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     jobs = [("testbed", n, s) for n in args.testbed for s in seeds]
-    jobs += [("own", n, s) for n in (OWN if args.own is None or args.own == [] else args.own) for s in seeds]
+    jobs += [("own", n, s) for n in args.own for s in seeds]
     print(f"{'source':8s} {'data set':18s} {'seed':>4s}  {'shape':9s} {'b [mm]':>7s} {'se':>5s} {'b*':>6s} "
           f"{'r flat':>7s} {'RMS flat':>8s} {'RMS sph':>8s} {'n':>6s}")
     rows = []
