@@ -11,6 +11,7 @@ from criticism import DiagnoseConfig, diagnose, diagnosis_record, diagnosis_text
 from criticism.contact import read_contact
 from physics import FlopController, simulate
 from physics.effects import ActuatorDelay, CylinderCaps, SensorBias, effect_from_config, model_space
+from physics.errors import ParameterError
 
 OFFSET = 0.012
 
@@ -44,6 +45,8 @@ def test_flat_ends_bring_the_caps_and_an_evident_offset_spheres_bring_nothing(fl
     assert not SensorBias(measured=OFFSET).evident                          # at rest it is one number with r
     assert not SensorBias(measured=0.003, width=0.002, from_flops=True).evident   # under EVIDENT_OFFSET
     assert not SensorBias(measured=0.008, width=0.01, from_flops=True).evident    # its box holds zero
+    with pytest.raises(ParameterError, match="needs the measured offset"):
+        SensorBias(from_flops=True)
 
 
 @pytest.mark.slow
