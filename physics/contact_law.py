@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from physics.effects.world import resting_planes
+from physics.effects.world import resting_normal
 
 __all__ = ["ContactLaw", "contact_law", "contact_samples", "CONTACT_BAND", "CONTACT_SPEED", "DECISIVE_RATIO",
            "SPHERE_RATIO", "MIN_TILT_SPREAD", "MIN_SAMPLES"]
@@ -79,12 +79,9 @@ class ContactLaw:
 
 
 def _floor_normal(trajectories: Sequence[xr.Dataset]) -> np.ndarray:
-    """The floor's unit normal: the median normal of the resting planes, z without any."""
-    planes = resting_planes(trajectories)
-    if not planes:
-        return np.array([0.0, 0.0, 1.0])
-    n = np.median([p.normal for p in planes], axis=0)
-    return n / np.linalg.norm(n)
+    """The floor's unit normal: the resting robot's (physics.effects.world.resting_normal), z without one."""
+    n = resting_normal(trajectories)
+    return np.array([0.0, 0.0, 1.0]) if n is None else n / np.linalg.norm(n)
 
 
 def contact_samples(ds: xr.Dataset, normal: np.ndarray, *, band: float = CONTACT_BAND,
@@ -95,13 +92,13 @@ def contact_samples(ds: xr.Dataset, normal: np.ndarray, *, band: float = CONTACT
     nodes = np.asarray(ds["nodes"].transpose("time", "node", "axis").values, float)      # T x 12 x 3
     t = np.asarray(ds["time"].values, float)
     height = nodes @ normal                                                                # T x 12
+    if not np.isfinite(height).any():
+        return np.empty(0), np.empty(0)
     axis = nodes[:, 1::2] - nodes[:, 0::2]                                                 # T x 6 x 3
     with np.errstate(invalid="ignore"):
         sin_tilt = np.abs(axis @ normal) / np.linalg.norm(axis, axis=2)
     cos_tilt = np.repeat(np.sqrt(np.clip(1.0 - sin_tilt ** 2, 0.0, 1.0)), 2, axis=1)      # T x 12
     speed = np.abs(np.gradient(height, t, axis=0)) if len(t) > 1 else np.full_like(height, np.inf)
-    if not np.isfinite(height).any():
-        return np.empty(0), np.empty(0)
     with np.errstate(invalid="ignore"):
         keep = (height <= np.nanmin(height) + band) & (speed <= max_speed) & np.isfinite(cos_tilt)
     return cos_tilt[keep], height[keep]

@@ -13,7 +13,7 @@ from physics.ground import GroundPlane, plane_below, rest_window
 from physics.parameters import T6_NOMINAL, Parameter
 
 __all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "EVIDENT_TILT", "MEASURED_CONTACT_WIDTH", "resting_planes",
-           "resting_tilt", "resting_height", "contact_excess", "slope_normal", "EndCapRadius", "PointMass"]
+           "resting_normal", "resting_tilt", "resting_height", "contact_excess", "slope_normal", "EndCapRadius", "PointMass"]
 
 #: ± half-width [rad] of a measured slope's box (0.5°): physics.ground's plane at rest is within
 #: 0.3° of the floor on the foreign testbed's 3° slope and level ground (tests/testbed)
@@ -110,14 +110,20 @@ def resting_planes(trajectories: Sequence[xr.Dataset]) -> list[GroundPlane]:
     return planes
 
 
+def resting_normal(trajectories: Sequence[xr.Dataset]) -> np.ndarray | None:
+    """The median (3,) of the normals of :func:`resting_planes` (componentwise, not renormalised);
+    None when no trajectory starts at rest."""
+    planes = resting_planes(trajectories)
+    return np.median([p.normal for p in planes], axis=0) if planes else None
+
+
 def resting_tilt(trajectories: Sequence[xr.Dataset]) -> tuple[float, float] | None:
     """(slope_x, slope_y) [rad] of the floor the resting robot shows: arcsin of the x and y
-    components of the median normal of :func:`resting_planes`, clipped to ±0.15 rad; None when no
-    trajectory starts at rest."""
-    planes = resting_planes(trajectories)
-    if not planes:
+    components of :func:`resting_normal`, clipped to ±0.15 rad; None when no trajectory starts at
+    rest."""
+    normal = resting_normal(trajectories)
+    if normal is None:
         return None
-    normal = np.median([p.normal for p in planes], axis=0)
     return (float(np.clip(np.arcsin(normal[0]), -0.15, 0.15)), float(np.clip(np.arcsin(normal[1]), -0.15, 0.15)))
 
 
