@@ -13,7 +13,8 @@ from physics.ground import GroundPlane, plane_below, rest_window
 from physics.parameters import T6_NOMINAL, Parameter
 
 __all__ = ["GroundSlope", "MEASURED_SLOPE_WIDTH", "EVIDENT_TILT", "MEASURED_CONTACT_WIDTH", "resting_planes",
-           "resting_normal", "resting_tilt", "resting_height", "contact_excess", "slope_normal", "EndCapRadius", "PointMass"]
+           "resting_normal", "resting_tilt", "resting_height", "contact_excess", "slope_normal", "EndCapRadius",
+           "PointMass"]
 
 #: ± half-width [rad] of a measured slope's box (0.5°): physics.ground's plane at rest is within
 #: 0.3° of the floor on the foreign testbed's 3° slope and level ground (tests/testbed)
