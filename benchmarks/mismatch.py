@@ -30,7 +30,11 @@ targets (both ratios at most 0.5).
 ``--source own`` runs the stage on the project's own engine (the scenarios of benchmarks/effects.py,
 1.5 s flops), where it should keep nothing.
 
-``--components`` and ``--rounds`` change the stage (give such runs their own ``--out``).
+``--read-contact`` runs the stage on the contact the flops read (criticism.contact: flat end caps
+join the model first, as ``diagnose --read-contact`` does); "before" is then the model with the
+read parts, and ``bare_before`` adds the bare T6 re-tuned, the before of the runs without it.
+
+``--components``, ``--rounds`` and ``--read-contact`` change the stage (give such runs their own ``--out``).
 Rows are appended to ``--out`` (JSON lines); a (dataset, seed, noise) already there is skipped.
 """
 from __future__ import annotations
@@ -45,6 +49,7 @@ from pathlib import Path
 import numpy as np
 from jsonl_rows import read_rows
 
+from criticism.contact import read_contact
 from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, absorb_mismatch, held_scores
 from physics import ReplayController, TrajectoryObjective, load_trajectory, simulate
@@ -66,18 +71,22 @@ def load(source: str, dataset: str, seed: int, noise: float, flops_version: int 
 
 
 def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed",
-            config: MismatchConfig | None = None, flops_version: int = 1) -> dict:
-    """The stage on one data set (``config``: the stage's, default MismatchConfig()); the benchmark's
-    row (JSON-ready)."""
+            config: MismatchConfig | None = None, flops_version: int = 1, contact: bool = False) -> dict:
+    """The stage on one data set (``config``: the stage's, default MismatchConfig(); ``contact``: on
+    the parts the flops' contact law reads); the benchmark's row (JSON-ready)."""
     config = config or MismatchConfig()
     data = load(source, dataset, seed, noise, flops_version)
     start = time.perf_counter()
+    read = read_contact(data).components if contact else ()
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
-        report = absorb_mismatch(objective, fit, [2], config=config, progress=False)
+        report = absorb_mismatch(objective.with_effects(read), fit, [2], config=config, progress=False)
         nominal = held_scores(objective, objective.space.nominal, [2], config.drift_time)
+        bare = (absorb_mismatch(objective, fit, [2], config=replace(config, rounds=0), progress=False).before.totals()
+                if read else None)
     row = {"source": source, "components": [c.name for c in config.components], "rounds": config.rounds,
             "flops_version": flops_version, "dataset": dataset, "seed": seed, "noise": noise,
+            "read_contact": contact, "read": [e.name for e in read], "bare_before": bare,
             "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
             "trials": [{"round": t.round, "name": t.name, "gain": t.gain, "values": t.values} for t in report.trials],
@@ -94,7 +103,7 @@ def noise_floor(row: dict) -> float:
     held-out flop's controls, its nodes get the data set's noise (seed 0), and the one-step error
     of that recording at the same θ is taken (what the stage could reach if it were exact)."""
     held = load(row.get("source", "testbed"), row["dataset"], row["seed"], row["noise"], row.get("flops_version", 1))[2]
-    effects = [EFFECT_TYPES[name]() for name in row["kept"]]
+    effects = [EFFECT_TYPES[name]() for name in row.get("read", []) + row["kept"]]
     t = np.asarray(held["time"].values, float)
     replay = ReplayController(t, np.asarray(held["controls"].transpose("time", "cable").values, float))
     theta = np.asarray(row["theta"], float)
@@ -128,6 +137,10 @@ def summarize(rows: list[dict]) -> None:
     for (f, b, a), r in zip(floors, [r for r in rows if "floor" in r], strict=True):
         print(f"{r['dataset']} seed {r['seed']}: noise floor of E1 {f:.4g}; above it, after / before "
               f"{(a - f) / (b - f):.2f}; floor / before {f / b:.2f}")
+    for r in (r for r in rows if r.get("bare_before")):
+        bare, a = r["bare_before"], r["after"]
+        print(f"{r['dataset']} seed {r['seed']}: read {', '.join(r['read'])}; after / bare before: one-step "
+              f"{a['one_step'] / bare['one_step']:.2f}, drift {a['drift'] / bare['drift']:.2f}")
     if ratios:
         arr = np.array(ratios)
         both = int(((arr[:, 0] <= 0.5) & (arr[:, 1] <= 0.5)).sum())
@@ -154,6 +167,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--flops-version", type=int, default=1, help="of the testbed's flops (testbed.datasets: "
                     "2 draws each flop's actuation from the seed)")
     ap.add_argument("--rounds", type=int, default=None, help="most components kept (default: MismatchConfig's)")
+    ap.add_argument("--read-contact", action="store_true",
+                    help="run the stage on the end caps the flops' contact law reads (criticism.contact)")
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
     if args.summarize:
@@ -168,8 +183,8 @@ def main(argv: list[str] | None = None) -> int:
             r.setdefault("floor", noise_floor(r))
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
     args.dataset = args.dataset or ("nominal" if args.source == "testbed" else "none")
-    key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1)): r
-           for r in saved}
+    key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1),
+            r.get("read_contact", False)): r for r in saved}
     config = MismatchConfig()
     if args.components:
         config = replace(config, components=tuple(effects_by_name(args.components)))
@@ -177,9 +192,10 @@ def main(argv: list[str] | None = None) -> int:
         config = replace(config, rounds=args.rounds)
     rows = []
     for seed in seeds:
-        row = key.get((args.source, args.dataset, seed, args.noise, args.flops_version))
+        row = key.get((args.source, args.dataset, seed, args.noise, args.flops_version, args.read_contact))
         if row is None:
-            row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config, args.flops_version)
+            row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config, args.flops_version,
+                          args.read_contact)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(f"{args.dataset} seed {seed}: kept {row['kept']}, {row['seconds']:.0f} s", flush=True)
