@@ -163,24 +163,30 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flo
 
 
 def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
-            mismatch: bool = False, flops_version: int = 1, read_contact: bool = False) -> dict:
+            mismatch: bool = False, flops_version: int = 1, read_contact: bool = False,
+            journals: Path | None = None) -> dict:
+    """The row of one scenario and seed; diagnose journals its stage and evaluations in a folder of
+    ``journals`` named after the run (None: not journalled)."""
+    run = (f"{source}-{name}-seed{seed}-{held_out}-b{budget}-v{flops_version}{'-mismatch' if mismatch else ''}"
+           f"{'-contact' if read_contact else ''}")
+    folder = None if journals is None else journals / run
     if source == "testbed":
         data, truth_names, true_values = testbed_data(name, seed, flops_version)
         row = diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
-                           passes=max(1, len(truth_names)), read_contact=read_contact)
+                           passes=max(1, len(truth_names)), read_contact=read_contact, journal_dir=folder)
         return {**row, "flops_version": flops_version}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
     return diagnose_row(name, seed, budget, data, [e.name for e in effects],
                         {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
-                        mismatch=mismatch, read_contact=read_contact)
+                        mismatch=mismatch, read_contact=read_contact, journal_dir=folder)
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
                  held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None,
-                 read_contact: bool = False) -> dict:
+                 read_contact: bool = False, journal_dir: Path | None = None) -> dict:
     """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``, the
     contact read from the flops first if ``read_contact``) in ``passes`` passes (default: 2 for a
     mix, else 1); the benchmark's row (JSON-ready)."""
@@ -188,7 +194,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
     start = time.perf_counter()
     config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None,
                             read_contact=read_contact)
-    d = diagnose(data, held_out=[2], config=config, progress=False)
+    d = diagnose(data, held_out=[2], config=config, progress=False, journal_dir=journal_dir)
     first = d.passes[0].criticism
     top = first.ranking[0] if first.ranking else None
     row = {"scenario": name, "seed": seed, "truth": truth, "top": top.name if top else None,
@@ -370,6 +376,9 @@ def main(argv: list[str] | None = None) -> int:
                     "(criticism.contact; testbed data; give such runs their own --out)")
     ap.add_argument("--flops-version", type=int, default=1, help="of the testbed's flops (testbed.datasets: "
                     "2 draws each flop's actuation from the seed; give such runs their own --out)")
+    ap.add_argument("--journals", default=None, metavar="DIR",
+                    help="journal each run's diagnosis under DIR (a rerun with another criticism reuses its mismatch "
+                         "stage and identification)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     args = ap.parse_args(argv)
@@ -398,7 +407,7 @@ def main(argv: list[str] | None = None) -> int:
             if (name, seed, args.held_out, args.budget, args.flops_version, args.read_contact) in done:
                 continue
             row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version,
-                             args.read_contact), "budget": args.budget}
+                             args.read_contact, Path(args.journals) if args.journals else None), "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")

@@ -19,7 +19,9 @@ segments into *fit* segments F and *held-out* segments H:
    redundancy make the raw count overstate the evidence; a model that explains the structure
    leaves whiter residuals and so earns a larger K) and k_e the effect's parameter count.
    ``K ln(E_0/E_1)`` is twice the log-likelihood ratio of two Gaussian models with the residual
-   variance profiled out;
+   variance profiled out. An effect whose place the data must choose (Effect.placements: a point
+   mass on one of 6 rods, toward either end) is screened at each of its m placements; the best is
+   kept and charged a further 2 ln m (a uniform prior over the placements);
    Before step 2 the model's own parameters are *re-tuned* (:func:`polish`: a bounded
    least-squares refinement of all of them on F, belief.least_squares): an imperfect θ̂ leaves
    residual that any extra freedom absorbs, so effects are fitted and scored against the
@@ -121,6 +123,7 @@ class Candidate:
     n_held: float = math.nan      # K_H of its residuals
     stage: str = "screened"       # "screened": η fitted with θ̃ held; "joint": θ and η re-tuned together
     theta: tuple[float, ...] = ()  # the full parameter vector of the model with the effect
+    placements: int = 1           # m: the effect's place was chosen among m (Effect.placements)
 
 
 @dataclass
@@ -152,7 +155,8 @@ class Criticism:
                  f"{self.floor.explained:10.1%}  {len(self.floor.values)} parameters moved"]
         for k, c in enumerate(self.ranking, 1):
             mark = " <- found" if self.found is not None and c.name == self.found.name else ""
-            lines.append(f"{k:>4}  {c.name:24s} {c.evidence:10.1f} {c.explained:10.1%}  {_values(c.values)}{mark}")
+            lines.append(f"{k:>4}  {c.name:24s} {c.evidence:10.1f} {c.explained:10.1%}  {_values(c.values)}"
+                         f"{_place(c)}{mark}")
         if self.contest is not None:
             lines.append(f"      contenders {', '.join(self.contest['effects'])}: scored with common "
                          f"K_F = {self.contest['n_fit']:.1f}, K_H = {self.contest['n_held']:.1f}")
@@ -183,23 +187,33 @@ def _values(values: dict[str, float]) -> str:
     return ", ".join(f"{k}={v:.4g}" for k, v in values.items())
 
 
+def _place(c: Candidate) -> str:
+    """Where a placed effect sits (its options), e.g. " (rod=5, position=-0.6; best of 12 places)"."""
+    if c.placements == 1:
+        return ""
+    options = ", ".join(f"{k}={v}" for k, v in c.config.items() if k != "effect")
+    return f" ({options}; best of {c.placements} places)"
+
+
 def _candidate(name: str, kind: str, values: dict[str, float], parts: np.ndarray, fit: np.ndarray, held: np.ndarray,
-               base: tuple[float, float], n_fit: float, n_held: float, k: int, config: dict[str, Any]) -> Candidate:
+               base: tuple[float, float], n_fit: float, n_held: float, k: int, config: dict[str, Any],
+               placements: int = 1) -> Candidate:
     """A ranked row: explained fraction on H and evidence on F and H against ``base`` = (E_F, E_H)."""
     row = Candidate(name, kind, values, float(parts[fit].sum()), float(parts[held].sum()), -math.inf, -math.inf,
-                    config, n_fit, n_held)
+                    config, n_fit, n_held, placements=placements)
     return _rescore(row, base, k)
 
 
 def _rescore(c: Candidate, base: tuple[float, float], k: int | None = None) -> Candidate:
-    """``c`` with explained fraction and evidence (module docstring) against ``base`` = (E_F, E_H)."""
+    """``c`` with explained fraction and evidence (module docstring; 2 ln m charged for a place chosen
+    among m) against ``base`` = (E_F, E_H)."""
     k = len(c.values) if k is None else k
     if not (np.isfinite(c.held_error) and c.held_error > 0 and np.isfinite(c.fit_error) and c.fit_error > 0
             and np.isfinite(c.n_fit) and np.isfinite(c.n_held)):
         return replace(c, explained=-math.inf, evidence=-math.inf)
     explained = 1.0 - c.held_error / base[1]
     evidence = (c.n_fit * math.log(base[0] / c.fit_error) + c.n_held * math.log(base[1] / c.held_error)
-                - k * math.log(max(c.n_fit + c.n_held, 2.0)))
+                - k * math.log(max(c.n_fit + c.n_held, 2.0)) - 2.0 * math.log(c.placements))
     return replace(c, explained=explained, evidence=evidence)
 
 
@@ -231,6 +245,16 @@ def _screen(objective: EffectObjective, theta: np.ndarray, parts: np.ndarray, ef
     return replace(c, theta=tuple(float(v) for v in fitted))
 
 
+def _screen_placed(objective: EffectObjective, theta: np.ndarray, parts: np.ndarray, effect: Effect,
+                   fit: np.ndarray, held: np.ndarray, config: CriticismConfig) -> Candidate:
+    """The effect screened at each of its m placements (Effect.placements); the best by evidence,
+    charged 2 ln m."""
+    options = effect.placements()
+    rows = [_screen(objective, theta, parts, p, fit, held, config) for p in options]
+    best = max(rows, key=lambda c: c.evidence)
+    return _rescore(replace(best, placements=len(options)), (float(parts[fit].sum()), float(parts[held].sum())))
+
+
 def _with(objective: EffectObjective, *candidates: Candidate) -> EffectObjective:
     """``objective`` with the effects of ``candidates`` (rebuilt from their configs) added to its own."""
     return objective.with_effects(tuple(objective.effects) + tuple(effect_from_config(c.config) for c in candidates))
@@ -250,7 +274,8 @@ def _joint(objective: EffectObjective, c: Candidate, fit: np.ndarray, held: np.n
         return _rescore(c, base)
     k_fit, k_held = _sizes(result.residuals, fit, held)
     values = {extended.space.names[j]: float(theta[j]) for j in range(D, extended.space.dim)}
-    out = _candidate(c.name, "effect", values, parts, fit, held, base, k_fit, k_held, len(values), c.config)
+    out = _candidate(c.name, "effect", values, parts, fit, held, base, k_fit, k_held, len(values), c.config,
+                     c.placements)
     return replace(out, stage="joint", theta=tuple(float(v) for v in theta))
 
 
@@ -268,7 +293,7 @@ def _pair(objective: EffectObjective, a: Candidate, b: Candidate, fit: np.ndarra
     given = {}
     for member, other in ((a, b), (b, a)):
         c = _candidate(member.name, "effect", member.values, parts, fit, held, (other.fit_error, other.held_error),
-                       k_fit, k_held, len(member.values), member.config)
+                       k_fit, k_held, len(member.values), member.config, member.placements)
         given[member.name] = c.evidence
     names = extended.space.names
     return {"effects": [a.name, b.name], "given": given, "explained": 1.0 - float(parts[held].sum()) / base[1],
@@ -370,7 +395,7 @@ def criticize(objective: EffectObjective, theta: np.ndarray, *, fit: np.ndarray 
     start = np.asarray(theta, float)
     start_parts = np.asarray(objective.evaluate_parts(start), float)
     result = polish(objective, start, fit_mask, config)
-    screened = [_screen(objective, result.theta, result.parts, e, fit_mask, held_mask, config)
+    screened = [_screen_placed(objective, result.theta, result.parts, e, fit_mask, held_mask, config)
                 for e in tqdm(effects, desc="effects", leave=False, disable=not progress)]
     if config.joint > 0 and screened:   # a second refinement for the base too, so both get the same search
         result = polish(objective, result.theta, fit_mask, config)

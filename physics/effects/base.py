@@ -122,6 +122,12 @@ class Effect(abc.ABC):
         data show directly (a floor's tilt at rest), else the nominal ones; always inside the box."""
         return {p.name: p.nominal for p in self.parameters()}
 
+    def placements(self) -> tuple[Effect, ...]:
+        """Where the effect could sit when the data must tell (an unplaced point mass: one per rod
+        and end); criticism screens each and keeps the best, charged for the choice
+        (criticism.search). Most effects have one placement, themselves."""
+        return (self,)
+
     def bind(self, trajectories: Sequence[xr.Dataset]) -> Effect:
         """The effect as these observed trajectories determine it, before any fit. Most effects
         return themselves; one whose size the data show directly (a floor's tilt, at rest) returns

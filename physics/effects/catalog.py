@@ -30,9 +30,15 @@ EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in _CATALOG + (
     EncoderOffset, TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps, RollingResistance)}
 
 
+#: Options of the catalog's instances that differ from the classes' defaults: the point mass's rod
+#: is the data's to choose (PointMass.placements).
+_CATALOG_OPTIONS: dict[type[Effect], dict] = {PointMass: {"rod": None}}
+
+
 def catalog() -> tuple[Effect, ...]:
-    """One instance of every effect criticism tries by default, with default options, in a fixed order."""
-    return tuple(cls() for cls in _CATALOG)
+    """One instance of every effect criticism tries by default, in a fixed order, with default
+    options except ``_CATALOG_OPTIONS``."""
+    return tuple(cls(**_CATALOG_OPTIONS.get(cls, {})) for cls in _CATALOG)
 
 
 def effect_from_config(config: dict) -> Effect:

@@ -239,23 +239,34 @@ class CylinderCaps(Effect):
 
 class PointMass(Effect):
     """A point mass ``point_mass`` [kg] on the axis of rod ``rod`` at ``position`` × half the rod
-    length from its centre (toward node 2·rod + 1): a sensor box or battery nobody modelled."""
+    length from its centre (toward node 2·rod + 1): a sensor box or battery nobody modelled.
+
+    ``rod=None`` is the mass whose place is unknown, as criticism's catalog holds it: its
+    :meth:`placements` are the 12 masses at ± ``position`` on each rod, and it builds no model itself."""
 
     name = "point_mass"
     description = "an extra point mass on one rod"
 
-    def __init__(self, rod: int = 0, position: float = 0.6) -> None:
-        if rod not in range(6):
-            raise ParameterError(f"PointMass.rod must be a rod index in 0..5, got {rod!r}.")
+    def __init__(self, rod: int | None = 0, position: float = 0.6) -> None:
+        if rod is not None and rod not in range(6):
+            raise ParameterError(f"PointMass.rod must be a rod index in 0..5 (or None: unplaced), got {rod!r}.")
         if not (-1.0 <= position <= 1.0):
             raise ParameterError("PointMass.position must be in [-1, 1] (fraction of the half length), got "
                                  f"{position!r}.")
-        self.rod, self.position = int(rod), float(position)
+        self.rod, self.position = (None if rod is None else int(rod)), float(position)
 
     def parameters(self) -> tuple[Parameter, ...]:
         return (Parameter("point_mass", "kg", 0.0, 0.0, 3.0, "extra mass on one rod", strict=False),)
 
+    def placements(self) -> tuple[Effect, ...]:
+        if self.rod is not None:
+            return (self,)
+        return tuple(PointMass(rod, side * self.position) for rod in range(6) for side in (1.0, -1.0))
+
     def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
+        if self.rod is None:
+            raise ParameterError("PointMass(rod=None) has no place to build a model with: give its rod, or let "
+                                 "criticism choose one of its placements().")
         if values["point_mass"] > 0:
             setup.point_masses.append((self.rod, float(values["point_mass"]),
                                        self.position * 0.5 * float(params["rod_length"])))

@@ -168,6 +168,16 @@ def test_point_mass_adds_mass_and_moves_the_centre_of_mass_toward_it():
     assert np.linalg.norm(heavy.com() - node) < np.linalg.norm(plain.com() - node)
 
 
+def test_an_unplaced_point_mass_offers_each_rod_and_end_and_builds_no_model():
+    unplaced = [e for e in catalog() if e.name == "point_mass"][0]
+    assert unplaced == PointMass(rod=None) and effect_from_config(unplaced.config()) == unplaced
+    places = unplaced.placements()
+    assert {(p.rod, p.position) for p in places} == {(r, s * 0.6) for r in range(6) for s in (1, -1)}
+    assert all(p.placements() == (p,) for p in places) and len(set(places)) == 12
+    with pytest.raises(ParameterError, match="no place to build a model"):
+        T6Model(_theta([unplaced], point_mass=1.0), effects=[unplaced])
+
+
 def test_caps_rest_on_their_contact_radius():
     effects = [EndCapRadius()]
     model = T6Model(_theta(effects, cap_radius_change=-0.03), effects=effects)
