@@ -9,7 +9,9 @@ the resting face goes over one of its three edges, so a flop 120° away alone is
 motion rotated; with ``--held-out actuation`` (the default) the held-out flop also changes 6
 cables by 30 % instead of 4 by 20 %, ``--held-out heading`` keeps the first protocol.
 
-Scenarios: one per catalog effect at the size in SIZES; ``none`` (no extra effect);
+Scenarios: one per catalog effect at the size in SIZES; ``point_mass_elsewhere`` (the mass on
+rod 3 at −0.6 of its half length, where the catalog's own instance is not: its place is searched,
+PointMass.placements); ``none`` (no extra effect);
 ``outside`` (a mis-zeroed encoder on one cable, physics.effects.EncoderOffset, not in the
 catalog); ``mix`` (ground slope and actuator delay); ``actuator+contact`` (rate-limited actuator
 and end-cap radius, as another engine's SUPERball differs from this one).
@@ -62,7 +64,7 @@ from jsonl_rows import read_rows
 from criticism import DiagnoseConfig, diagnose
 from criticism.mismatch import MismatchConfig
 from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
-from physics.effects import EFFECT_TYPES, EncoderOffset, catalog, effect_from_config, model_space
+from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, effect_from_config, model_space
 
 #: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
 #: differences between two engines' SUPERballs are (an actuator reaching its target in 0.11 s,
@@ -73,6 +75,8 @@ SIZES = {"ground_slope": {"slope_x": 0.08}, "air_drag": {"drag": 8.0}, "ground_v
          "sensor_bias": {"sensor_bias_z": 0.02}, "end_cap_radius": {"cap_radius_change": -0.029},
          "point_mass": {"point_mass": 1.5}, "encoder_offset": {"encoder_offset": 0.05}}
 MIXES = {"mix": ("ground_slope", "actuator_delay"), "actuator+contact": ("rate_limited_actuator", "end_cap_radius")}
+#: scenarios whose effect sits where the catalog's default instance does not: the search must find its place
+PLACED = {"point_mass_elsewhere": PointMass(rod=3, position=-0.6)}
 #: testbed data set -> the catalog effects that model its hidden effects (a mix has two)
 TESTBED_TRUTH: dict[str, tuple[str, ...]] = {
     "nominal": (), "slope": ("ground_slope",), "marker_offset": ("sensor_bias",), "drag": ("air_drag",),
@@ -88,6 +92,8 @@ def scenario_effects(name: str) -> list:
         return []
     if name == "outside":
         return [EncoderOffset()]
+    if name in PLACED:
+        return [PLACED[name]]
     names = MIXES.get(name, (name,))
     return [EFFECT_TYPES[n]() for n in names]
 
@@ -179,9 +185,10 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
-    return diagnose_row(name, seed, budget, data, [e.name for e in effects],
-                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
-                        mismatch=mismatch, read_contact=read_contact, journal_dir=folder)
+    row = diagnose_row(name, seed, budget, data, [e.name for e in effects],
+                       {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
+                       mismatch=mismatch, read_contact=read_contact, journal_dir=folder)
+    return {**row, "true_configs": [e.config() for e in effects]}
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
@@ -200,6 +207,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
     row = {"scenario": name, "seed": seed, "truth": truth, "top": top.name if top else None,
            "top_explained": top.explained if top else None, "top_values": top.values if top else None,
            "top_evidence": top.evidence if top else None, "top_config": top.config if top else None,
+           "top_placements": top.placements if top else None,
            "floor": first.floor.name,
            "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
            "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None, "n_eff_fit": first.n_eff_fit,
@@ -326,6 +334,11 @@ def details(rows: list[dict]) -> None:
               f"over {other}; fitted flops favour the truth {c[true]['fit_error'] < c[other]['fit_error']}, held-out "
               f"{c[true]['held_error'] < c[other]['held_error']} (E_H {c[true]['held_error']:.4f} against "
               f"{c[other]['held_error']:.4f}); alternatives {r.get('alternatives', [])}")
+    placed = [r for r in rows if r.get("true_configs") and (r.get("top_placements") or 1) > 1
+              and r["top"] == r["truth"][0]]
+    if placed:
+        right = sum(r["top_config"] == r["true_configs"][0] for r in placed)
+        print(f"\nplaced effects ranked first: at the true place in {right} of {len(placed)} runs")
 
 
 def print_rows(rows: list[dict]) -> None:
@@ -391,7 +404,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.scenarios is None:
         args.scenarios = (list(TESTBED_TRUTH) if args.source == "testbed"
-                          else [e.name for e in catalog()] + ["none", "outside", "mix", "actuator+contact"])
+                          else [e.name for e in catalog()] + [*PLACED, "none", "outside", "mix", "actuator+contact"])
     if args.source == "testbed":
         args.held_out = "testbed"
     out = Path(args.out or f"benchmarks/results/effects-{args.held_out}{'-mismatch' if args.mismatch else ''}.jsonl")
