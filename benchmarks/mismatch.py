@@ -34,7 +34,11 @@ targets (both ratios at most 0.5).
 join the model first, as ``diagnose --read-contact`` does); "before" is then the model with the
 read parts, and ``bare_before`` adds the bare T6 re-tuned, the before of the runs without it.
 
-``--components``, ``--rounds`` and ``--read-contact`` change the stage (give such runs their own ``--out``).
+``--base EFFECT ...`` puts catalog effects into the model before the stage (e.g. ``cable_hysteresis`` on
+the hysteresis data: does the actuator law then pay?); they are re-tuned with the T6 and stay out of
+``kept``.
+
+``--components``, ``--rounds``, ``--read-contact`` and ``--base`` change the stage (give such runs their own ``--out``).
 Rows are appended to ``--out`` (JSON lines); a (dataset, seed, noise) already there is skipped.
 """
 from __future__ import annotations
@@ -71,22 +75,23 @@ def load(source: str, dataset: str, seed: int, noise: float, flops_version: int 
 
 
 def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed",
-            config: MismatchConfig | None = None, flops_version: int = 1, contact: bool = False) -> dict:
+            config: MismatchConfig | None = None, flops_version: int = 1, contact: bool = False,
+            base: tuple[str, ...] = ()) -> dict:
     """The stage on one data set (``config``: the stage's, default MismatchConfig(); ``contact``: on
     the parts the flops' contact law reads); the benchmark's row (JSON-ready)."""
     config = config or MismatchConfig()
     data = load(source, dataset, seed, noise, flops_version)
     start = time.perf_counter()
-    read = read_contact(data).components if contact else ()
+    read = (read_contact(data).components if contact else ()) + (effects_by_name(list(base)) if base else ())
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
         report = absorb_mismatch(objective.with_effects(read), fit, [2], config=config, progress=False)
         nominal = held_scores(objective, objective.space.nominal, [2], config.drift_time)
         bare = (absorb_mismatch(objective, fit, [2], config=replace(config, rounds=0), progress=False).before.totals()
-                if read else None)
+                if read and contact else None)
     row = {"source": source, "components": [c.name for c in config.components], "rounds": config.rounds,
             "flops_version": flops_version, "dataset": dataset, "seed": seed, "noise": noise,
-            "read_contact": contact, "read": [e.name for e in read], "bare_before": bare,
+            "read_contact": contact, "base": list(base), "read": [e.name for e in read], "bare_before": bare,
             "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
             "trials": [{"round": t.round, "name": t.name, "gain": t.gain, "values": t.values} for t in report.trials],
@@ -169,6 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=None, help="most components kept (default: MismatchConfig's)")
     ap.add_argument("--read-contact", action="store_true",
                     help="run the stage on the end caps the flops' contact law reads (criticism.contact)")
+    ap.add_argument("--base", nargs="+", default=[], metavar="EFFECT",
+                    help="effects in the model before the stage (physics.effects names, e.g. cable_hysteresis)")
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
     if args.summarize:
@@ -184,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
     args.dataset = args.dataset or ("nominal" if args.source == "testbed" else "none")
     key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1),
-            r.get("read_contact", False)): r for r in saved}
+            r.get("read_contact", False), tuple(r.get("base", ()))): r for r in saved}
     config = MismatchConfig()
     if args.components:
         config = replace(config, components=tuple(effects_by_name(args.components)))
@@ -192,10 +199,11 @@ def main(argv: list[str] | None = None) -> int:
         config = replace(config, rounds=args.rounds)
     rows = []
     for seed in seeds:
-        row = key.get((args.source, args.dataset, seed, args.noise, args.flops_version, args.read_contact))
+        row = key.get((args.source, args.dataset, seed, args.noise, args.flops_version, args.read_contact,
+                       tuple(args.base)))
         if row is None:
             row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config, args.flops_version,
-                          args.read_contact)
+                          args.read_contact, tuple(args.base))
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(f"{args.dataset} seed {seed}: kept {row['kept']}, {row['seconds']:.0f} s", flush=True)
