@@ -62,7 +62,7 @@ from tqdm.auto import tqdm
 
 from belief import least_squares
 from belief.least_squares import LeastSquaresConfig, LocalFit
-from belief.noise import effective_size
+from criticism.candidate import Candidate, effective_counts, place_text, rescore, scored, values_text
 from criticism.errors import CriticismError
 from criticism.replication import replication_gains
 from criticism.screening import effect_start, fit_effect
@@ -106,26 +106,6 @@ class CriticismConfig:
                                  f"got {self.min_replication}.")
 
 
-@dataclass(frozen=True)
-class Candidate:
-    """One row of the ranking: an effect (kind "effect") or a re-fit parameter of the model (kind
-    "floor"), its fitted values, fit and held-out errors, explained fraction and evidence."""
-
-    name: str
-    kind: str
-    values: dict[str, float]
-    fit_error: float
-    held_error: float
-    explained: float
-    evidence: float
-    config: dict[str, Any] = field(default_factory=dict)     # Effect.config() of the effect; {} for the floor
-    n_fit: float = math.nan       # K_F of its residuals
-    n_held: float = math.nan      # K_H of its residuals
-    stage: str = "screened"       # "screened": η fitted with θ̃ held; "joint": θ and η re-tuned together
-    theta: tuple[float, ...] = ()  # the full parameter vector of the model with the effect
-    placements: int = 1           # m: the effect's place was chosen among m (Effect.placements)
-
-
 @dataclass
 class Criticism:
     """The outcome of :func:`criticize` (module docstring): θ̃ the re-tuned parameters (the floor),
@@ -155,8 +135,8 @@ class Criticism:
                  f"{self.floor.explained:10.1%}  {len(self.floor.values)} parameters moved"]
         for k, c in enumerate(self.ranking, 1):
             mark = " <- found" if self.found is not None and c.name == self.found.name else ""
-            lines.append(f"{k:>4}  {c.name:24s} {c.evidence:10.1f} {c.explained:10.1%}  {_values(c.values)}"
-                         f"{_place(c)}{mark}")
+            lines.append(f"{k:>4}  {c.name:24s} {c.evidence:10.1f} {c.explained:10.1%}  {values_text(c.values)}"
+                         f"{place_text(c)}{mark}")
         if self.contest is not None:
             lines.append(f"      contenders {', '.join(self.contest['effects'])}: scored with common "
                          f"K_F = {self.contest['n_fit']:.1f}, K_H = {self.contest['n_held']:.1f}")
@@ -183,46 +163,6 @@ class Criticism:
                 "alternatives": self.alternatives, "contest": self.contest, "replication": self.replication}
 
 
-def _values(values: dict[str, float]) -> str:
-    return ", ".join(f"{k}={v:.4g}" for k, v in values.items())
-
-
-def _place(c: Candidate) -> str:
-    """Where a placed effect sits (its options), e.g. " (rod=5, position=-0.6; best of 12 places)"."""
-    if c.placements == 1:
-        return ""
-    options = ", ".join(f"{k}={v}" for k, v in c.config.items() if k != "effect")
-    return f" ({options}; best of {c.placements} places)"
-
-
-def _candidate(name: str, kind: str, values: dict[str, float], parts: np.ndarray, fit: np.ndarray, held: np.ndarray,
-               base: tuple[float, float], n_fit: float, n_held: float, k: int, config: dict[str, Any],
-               placements: int = 1) -> Candidate:
-    """A ranked row: explained fraction on H and evidence on F and H against ``base`` = (E_F, E_H)."""
-    row = Candidate(name, kind, values, float(parts[fit].sum()), float(parts[held].sum()), -math.inf, -math.inf,
-                    config, n_fit, n_held, placements=placements)
-    return _rescore(row, base, k)
-
-
-def _rescore(c: Candidate, base: tuple[float, float], k: int | None = None) -> Candidate:
-    """``c`` with explained fraction and evidence (module docstring; 2 ln m charged for a place chosen
-    among m) against ``base`` = (E_F, E_H)."""
-    k = len(c.values) if k is None else k
-    if not (np.isfinite(c.held_error) and c.held_error > 0 and np.isfinite(c.fit_error) and c.fit_error > 0
-            and np.isfinite(c.n_fit) and np.isfinite(c.n_held)):
-        return replace(c, explained=-math.inf, evidence=-math.inf)
-    explained = 1.0 - c.held_error / base[1]
-    evidence = (c.n_fit * math.log(base[0] / c.fit_error) + c.n_held * math.log(base[1] / c.held_error)
-                - k * math.log(max(c.n_fit + c.n_held, 2.0)) - 2.0 * math.log(c.placements))
-    return replace(c, explained=explained, evidence=evidence)
-
-
-def _sizes(residuals: Sequence[np.ndarray], fit: np.ndarray, held: np.ndarray) -> tuple[float, float]:
-    """Effective residual counts (K_F, K_H) of the residuals (S arrays) on the fit and held-out segments."""
-    return (effective_size([r for r, f in zip(residuals, fit, strict=True) if f]).n_eff,
-            effective_size([r for r, h in zip(residuals, held, strict=True) if h]).n_eff)
-
-
 def polish(objective: Objective, theta: np.ndarray, fit: np.ndarray, config: CriticismConfig = CriticismConfig(),
            indices: Sequence[int] | None = None) -> LocalFit:
     """Re-tune the parameters ``indices`` (default all) on the fit segments by bounded least
@@ -237,10 +177,10 @@ def _screen(objective: EffectObjective, theta: np.ndarray, parts: np.ndarray, ef
     extended, start, indices = effect_start(objective, theta, effect)
     fitted, eparts = fit_effect(extended, start, indices, fit, grid=config.grid, refine=config.refine)
     values = {extended.space.names[j]: float(fitted[j]) for j in indices}
-    k_fit, k_held = (_sizes(extended.residuals(fitted), fit, held) if np.isfinite(eparts).all()
+    k_fit, k_held = (effective_counts(extended.residuals(fitted), fit, held) if np.isfinite(eparts).all()
                      else (math.nan, math.nan))
     before = (float(parts[fit].sum()), float(parts[held].sum()))
-    c = _candidate(effect.name, "effect", values, eparts, fit, held, before, k_fit, k_held, len(indices),
+    c = scored(effect.name, "effect", values, eparts, fit, held, before, k_fit, k_held, len(indices),
                    effect.config())
     return replace(c, theta=tuple(float(v) for v in fitted))
 
@@ -252,7 +192,7 @@ def _screen_placed(objective: EffectObjective, theta: np.ndarray, parts: np.ndar
     options = effect.placements()
     rows = [_screen(objective, theta, parts, p, fit, held, config) for p in options]
     best = max(rows, key=lambda c: c.evidence)
-    return _rescore(replace(best, placements=len(options)), (float(parts[fit].sum()), float(parts[held].sum())))
+    return rescore(replace(best, placements=len(options)), (float(parts[fit].sum()), float(parts[held].sum())))
 
 
 def _with(objective: EffectObjective, *candidates: Candidate) -> EffectObjective:
@@ -271,10 +211,10 @@ def _joint(objective: EffectObjective, c: Candidate, fit: np.ndarray, held: np.n
     result = polish(extended, np.asarray(c.theta), fit, config)
     theta, parts = result.theta, result.parts
     if not np.isfinite(parts).all():
-        return _rescore(c, base)
-    k_fit, k_held = _sizes(result.residuals, fit, held)
+        return rescore(c, base)
+    k_fit, k_held = effective_counts(result.residuals, fit, held)
     values = {extended.space.names[j]: float(theta[j]) for j in range(D, extended.space.dim)}
-    out = _candidate(c.name, "effect", values, parts, fit, held, base, k_fit, k_held, len(values), c.config,
+    out = scored(c.name, "effect", values, parts, fit, held, base, k_fit, k_held, len(values), c.config,
                      c.placements)
     return replace(out, stage="joint", theta=tuple(float(v) for v in theta))
 
@@ -289,10 +229,10 @@ def _pair(objective: EffectObjective, a: Candidate, b: Candidate, fit: np.ndarra
     theta, parts = result.theta, result.parts
     if not np.isfinite(parts).all():
         return None
-    k_fit, k_held = _sizes(result.residuals, fit, held)
+    k_fit, k_held = effective_counts(result.residuals, fit, held)
     given = {}
     for member, other in ((a, b), (b, a)):
-        c = _candidate(member.name, "effect", member.values, parts, fit, held, (other.fit_error, other.held_error),
+        c = scored(member.name, "effect", member.values, parts, fit, held, (other.fit_error, other.held_error),
                        k_fit, k_held, len(member.values), member.config, member.placements)
         given[member.name] = c.evidence
     names = extended.space.names
@@ -325,7 +265,7 @@ def _contest(ranking: list[Candidate], base: tuple[float, float],
     contenders = [c for c in ranking if c.name in names]
     k_fit = float(np.mean([c.n_fit for c in contenders]))
     k_held = float(np.mean([c.n_held for c in contenders]))
-    common = {c.name: _rescore(replace(c, n_fit=k_fit, n_held=k_held), base) for c in contenders}
+    common = {c.name: rescore(replace(c, n_fit=k_fit, n_held=k_held), base) for c in contenders}
     return [common.get(c.name, c) for c in ranking], {"effects": names, "n_fit": k_fit, "n_held": k_held}
 
 
@@ -400,16 +340,16 @@ def criticize(objective: EffectObjective, theta: np.ndarray, *, fit: np.ndarray 
     if config.joint > 0 and screened:   # a second refinement for the base too, so both get the same search
         result = polish(objective, result.theta, fit_mask, config)
     theta, parts = result.theta, result.parts
-    n_fit, n_held = _sizes(result.residuals, fit_mask, held_mask)
+    n_fit, n_held = effective_counts(result.residuals, fit_mask, held_mask)
     base = (float(parts[fit_mask].sum()), float(parts[held_mask].sum()))
     moved = {n: float(v) for n, v, v0 in zip(objective.space.names, theta, start, strict=True) if v != v0}
     start_base = (float(start_parts[fit_mask].sum()), float(start_parts[held_mask].sum()))
-    floor = _candidate("re-tuned model", "floor", moved, parts, fit_mask, held_mask, start_base, n_fit, n_held,
+    floor = scored("re-tuned model", "floor", moved, parts, fit_mask, held_mask, start_base, n_fit, n_held,
                        len(moved), {})
     screened.sort(key=lambda c: -c.evidence)
     top = tqdm(screened[:config.joint], desc="joint fits", leave=False, disable=not progress)
     ranking = [_joint(objective, c, fit_mask, held_mask, base, config) for c in top]
-    ranking, contest = _contest(ranking + [_rescore(c, base) for c in screened[config.joint:]], base, config)
+    ranking, contest = _contest(ranking + [rescore(c, base) for c in screened[config.joint:]], base, config)
     crit = Criticism(theta, base[0], base[1], n_fit, n_held, _order(ranking, config), floor, "unexplained", None,
                      dict(structure or {}), contest=contest)
     return _verdict(objective, crit, fit_mask, held_mask, config)

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from criticism import CriticismError
+from criticism.candidate import rescore as _rescore
 from criticism.diagnose import split_masks
 from criticism.residuals import phases, residual_dataset, residual_summary
-from criticism.search import Candidate, Criticism, CriticismConfig, _contest, _order, _rescore, _verdict, criticize
+from criticism.search import Candidate, Criticism, CriticismConfig, _contest, _order, _verdict, criticize
 from physics import FlopController, HoldController, TrajectoryObjective, simulate
 from physics.effects import (
     ActuatorDelay, EncoderOffset, EndCapRadius, GroundSlope, NonlinearStiffness, SensorBias, model_space,

@@ -18,7 +18,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from criticism.search import CriticismConfig, _rescore, criticize
+from criticism.candidate import rescore
+from criticism.search import CriticismConfig, criticize
 from physics.effects import ActuatorDelay, AirDrag, Effect, PointMass, model_space
 from physics.objective import BatchResult
 from physics.parameters import ParameterSpace
@@ -160,7 +161,7 @@ def test_a_mass_on_an_unknown_rod_is_found_at_its_place_and_charged_for_the_choi
     assert (crit.found.config["rod"], crit.found.config["position"]) == (3, -0.6)
     assert crit.found.placements == 12
     uncharged = replace(crit.found, placements=1)
-    charged = _rescore(uncharged, (crit.base_fit, crit.base_held))
+    charged = rescore(uncharged, (crit.base_fit, crit.base_held))
     assert charged.evidence - crit.found.evidence == pytest.approx(2 * np.log(12))
     assert "rod=3, position=-0.6; best of 12 places" in crit.table()
 
