@@ -50,10 +50,12 @@ from belief.identify import identify
 from belief.posterior import PosteriorConfig
 from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.result import IdentificationResult
+from criticism.candidate import Candidate
 from criticism.contact import ContactReading, read_contact
 from criticism.errors import CriticismError
 from criticism.mismatch import MismatchConfig, MismatchReport, superseded
 from criticism.residuals import residual_dataset, residual_summary
+from criticism.revisit import Revisit, revisit_stage
 from criticism.search import Criticism, CriticismConfig, criticize
 from criticism.stage_journal import journalled_stage
 from embeddings import Identity
@@ -78,7 +80,9 @@ class DiagnoseConfig:
     keeps nothing (tests/criticism/test_mismatch.py), so the rest of the loop is as without it;
     measure_at_rest: add the effects the resting robot shows (:func:`shown_at_rest`) before identifying;
     read_contact: read the end caps' shape and the observations' offset from the flops first
-    (criticism.contact; off by default until the benchmarks measured it on every data set)."""
+    (criticism.contact; off by default until the benchmarks measured it on every data set);
+    revisit: when criticism ranks an effect first without finding it, try the components the stage
+    rejected again with that effect in the model (criticism.revisit)."""
 
     passes: int = 2
     budget: int = 40
@@ -91,6 +95,7 @@ class DiagnoseConfig:
     mismatch: MismatchConfig | None = field(default_factory=MismatchConfig)
     measure_at_rest: bool = True
     read_contact: bool = False
+    revisit: bool = True
 
     def __post_init__(self) -> None:
         if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
@@ -119,6 +124,24 @@ class Pass:
     held_after: dict[str, float] | None = None
     belief_after: Belief | None = None
     at_bounds: tuple[AtBound, ...] = ()
+    revisit: Revisit | None = None
+
+    @property
+    def found(self) -> Candidate | None:
+        """The row of the effect this pass found: criticism's, or the second look's (criticism.revisit)."""
+        if self.criticism.found is not None:
+            return self.criticism.found
+        return self.revisit.row if self.revisit is not None and self.revisit.found else None
+
+    @property
+    def additions(self) -> tuple[Effect, ...]:
+        """The effects this pass adds to the model: the found one, then the components the second
+        look let in with it; () when nothing was found."""
+        row = self.found
+        if row is None:
+            return ()
+        extra = self.revisit.components if self.criticism.found is None and self.revisit is not None else ()
+        return (effect_from_config(row.config),) + extra
 
     def estimates(self) -> dict[str, dict[str, Any]]:
         """The added effect's parameters after re-identification: name -> {"value" (best θ),
@@ -315,17 +338,22 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
             step = Pass(tuple(e.name for e in added), model.space.names, theta, crit, _held_errors(model, theta, held),
                         at_bounds=pinned)
             passes.append(step)
-            if crit.found is None:
+            if stage is not None and config.mismatch is not None and config.revisit:
+                step.revisit = revisit_stage(model, crit, stage, fit, held, held_idx, config=config.mismatch,
+                                             criticism=config.criticism, progress=progress,
+                                             journal_dir=None if journals is None else journals / f"revisit{k}")
+            row = step.found
+            if row is None:
                 break
-            added = added + (effect_from_config(crit.found.config),)
-            ident = identify_from(fit_objective.with_effects(added), np.asarray(crit.found.theta, float),
+            added = added + step.additions
+            ident = identify_from(fit_objective.with_effects(added), np.asarray(row.theta, float),
                                   budget=config.budget, candidates=config.candidates, seed=config.seed + k + 1,
                                   journal=_journal(journals, k + 1), progress=progress)
-            _record_after(step, crit.found.name, full.with_effects(added), ident, held)
+            _record_after(step, row.name, full.with_effects(added), ident, held)
         settings = {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
                     "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
                     "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,
-                    "read_contact": config.read_contact,
+                    "read_contact": config.read_contact, "revisit": config.revisit,
                     "fit_trajectories": fit_idx, "segments": list(full.segments)}
         return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown, contact)
     finally:

@@ -74,11 +74,12 @@ def _measured(effect: Effect) -> str:
 def _outcome(p: Pass) -> list[str]:
     """A pass's verdict lines: the effect added, the held-out error E per trajectory before and
     after with the relative change, and the re-identified estimates; or why nothing was added."""
-    found, after = p.criticism.found, p.held_after
+    found, after = p.found, p.held_after
+    second = [p.revisit.text()] if p.revisit is not None else []
     if p.added is None or found is None or after is None:
-        return [f"verdict: {p.criticism.verdict} (no effect explains enough of the held-out residual "
-                "left by the re-tuned model)"]
-    out = [f"verdict: found {p.added} ({', '.join(f'{k}={v:.4g}' for k, v in found.values.items())})",
+        return second + [f"verdict: {p.criticism.verdict} (no effect explains enough of the held-out residual "
+                         "left by the re-tuned model)"]
+    out = second + [f"verdict: found {p.added} ({', '.join(f'{k}={v:.4g}' for k, v in found.values.items())})",
            f"{'held-out':10s} {'E before':>12} {'E after':>12} {'change':>8}"]
     for key, b in p.held_before.items():
         a = after[key]
@@ -113,7 +114,8 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
                         "theta_after": None if p.theta_after is None
                         else dict(zip(p.names_after, p.theta_after.tolist(), strict=True)),
                         "theta": dict(zip(p.names, p.theta.tolist(), strict=True)),
-                        "at_bounds": [a.as_dict() for a in p.at_bounds]} for p in d.passes]}
+                        "at_bounds": [a.as_dict() for a in p.at_bounds],
+                        "revisit": None if p.revisit is None else p.revisit.as_dict()} for p in d.passes]}
 
 
 def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequence[Effect]) -> TrajectoryObjective:
@@ -127,8 +129,8 @@ def _final(d: Diagnosis) -> tuple[list[Effect], np.ndarray]:
     effects: list[Effect] = list(d.first_model)
     theta = d.passes[0].theta
     for p in d.passes:
-        if p.added is not None and p.criticism.found is not None and p.theta_after is not None:
-            effects.append(effect_from_config(p.criticism.found.config))
+        if p.added is not None and p.additions and p.theta_after is not None:
+            effects.extend(p.additions)
             theta = p.theta_after
     return effects, theta
 

@@ -39,10 +39,15 @@ def _canonical(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"))
 
 
-def stage_fingerprint(objective: TrajectoryObjective, held: Sequence[int], config: MismatchConfig) -> dict[str, Any]:
-    """What identifies a stage: the objective's fingerprint, the held-out trajectories, the settings."""
-    return json.loads(_canonical({"format": FORMAT, "objective": objective.fingerprint(),
-                                  "held": [int(k) for k in held], "config": config.record()}))
+def stage_fingerprint(objective: TrajectoryObjective, held: Sequence[int], config: MismatchConfig,
+                      theta: np.ndarray | None = None) -> dict[str, Any]:
+    """What identifies a stage: the objective's fingerprint, the held-out trajectories, the settings
+    and the start θ0 when one is given."""
+    record = {"format": FORMAT, "objective": objective.fingerprint(), "held": [int(k) for k in held],
+              "config": config.record()}
+    if theta is not None:
+        record["theta"] = [float(v) for v in theta]
+    return json.loads(_canonical(record))
 
 
 def _read(path: Path, fingerprint: dict[str, Any]) -> MismatchReport | None:
@@ -70,15 +75,17 @@ def _write(path: Path, fingerprint: dict[str, Any], report: MismatchReport) -> N
 
 
 def journalled_stage(objective: TrajectoryObjective, fit: np.ndarray, held: Sequence[int], *,
-                     config: MismatchConfig, journal_dir: Path | None, progress: bool = True) -> MismatchReport:
-    """:func:`absorb_mismatch` (``objective``, ``fit`` mask (S,), ``held`` trajectory indices), read
-    from ``journal_dir``/STAGE_JOURNAL when a stage of the same problem is there, written there after."""
+                     config: MismatchConfig, journal_dir: Path | None, progress: bool = True,
+                     theta: np.ndarray | None = None) -> MismatchReport:
+    """:func:`absorb_mismatch` (``objective``, ``fit`` mask (S,), ``held`` trajectory indices, start
+    ``theta`` (D,), default the nominal θ), read from ``journal_dir``/STAGE_JOURNAL when a stage of
+    the same problem is there, written there after."""
     if journal_dir is None:
-        return absorb_mismatch(objective, fit, held, config=config, progress=progress)
+        return absorb_mismatch(objective, fit, held, theta=theta, config=config, progress=progress)
     path = Path(journal_dir) / STAGE_JOURNAL
-    fingerprint = stage_fingerprint(objective, held, config)
+    fingerprint = stage_fingerprint(objective, held, config, theta)
     report = _read(path, fingerprint)
     if report is None:
-        report = absorb_mismatch(objective, fit, held, config=config, progress=progress)
+        report = absorb_mismatch(objective, fit, held, theta=theta, config=config, progress=progress)
         _write(path, fingerprint, report)
     return report

@@ -1,5 +1,7 @@
 """The catalog search's statistics on a linear model whose answer is known: one effect is found
-alone, two effects that each hide the other are found through the pair, and a decoy is not named.
+alone, two effects that each hide the other are found through the pair, and a decoy is not named;
+a point mass on an unknown rod is found at its place and charged for the choice; the second look
+at the stage (criticism.revisit) finds an effect together with the component it lets in.
 
 The test double is an EffectObjective whose residual is linear in θ (no physics), so the verdict
 depends only on the search's rules (criticism.search, module docstring, step 3):
@@ -14,13 +16,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from criticism.candidate import rescore
-from criticism.search import CriticismConfig, criticize
-from physics.effects import ActuatorDelay, AirDrag, Effect, PointMass, model_space
+from criticism.mismatch import MismatchConfig
+from criticism.revisit import revisit_stage
+from criticism.search import CriticismConfig, criticize, polish
+from physics.effects import ActuatorDelay, AirDrag, CableAnchors, Effect, PointMass, SensorBias, model_space
 from physics.objective import BatchResult
 from physics.parameters import ParameterSpace
 
@@ -172,3 +177,43 @@ def test_twelve_places_to_choose_from_do_not_make_noise_a_mass() -> None:
                         effects=[PointMass(rod=None)], config=CriticismConfig(grid=5, refine=5, joint=1),
                         progress=False).found for s in range(10)]
     assert claims == [None] * 10
+
+
+def _stage(effects: tuple, theta: np.ndarray | None = None) -> SimpleNamespace:
+    """A stand-in for a MismatchReport: the components kept and the θ it ends at."""
+    return SimpleNamespace(effects=effects, theta=theta)
+
+
+def test_the_second_look_finds_an_effect_with_the_component_the_stage_rejected(monkeypatch) -> None:
+    """The data carry a drag and cable anchors whose signatures share a part (3u + v, -3u + w):
+    the model without anchors ranks the drag first but it explains too little alone; tried again
+    with the drag in the model, the anchors are kept (the stand-in stage re-tunes both by least
+    squares), and the pair is scored against the ranking's base and found."""
+    rng = np.random.default_rng(3)
+    a = 0.1 * rng.standard_normal((S, M, T6.dim))
+    basis = np.linalg.qr(np.c_[a.reshape(S * M, T6.dim), rng.standard_normal((S * M, 3))])[0][:, T6.dim:]
+    u, v, w = (np.sqrt(200.0) * basis[:, k].reshape(S, M) for k in range(3))
+    signatures = {"drag": 3 * u + v, "anchor_offset": -3 * u + w}
+    y = rng.standard_normal((S, M)) + signatures["drag"] + signatures["anchor_offset"]
+    model = LinearEffects(y, a, signatures)
+    crit = criticize(model, T6.nominal, fit=FIT, held=~FIT, effects=[AirDrag()],
+                     config=CriticismConfig(grid=5, refine=5, joint=1), progress=False)
+    assert crit.found is None and crit.ranking[0].name == "air_drag" and crit.ranking[0].evidence > 0
+
+    def stage(objective, fit, held, *, config, journal_dir, progress, theta):
+        assert [c.name for c in config.components] == ["cable_anchors"]      # only what the stage rejected
+        extended = objective.with_effects(tuple(objective.effects) + (CableAnchors(),))
+        fitted = polish(extended, np.r_[theta, 0.0], fit)
+        return _stage((CableAnchors(),), fitted.theta)
+
+    monkeypatch.setattr("criticism.revisit.journalled_stage", stage)
+    first = _stage((SensorBias(),))
+    config = MismatchConfig(components=(SensorBias(), CableAnchors()))
+    second = revisit_stage(model, crit, first, FIT, ~FIT, [], config=config, criticism=CriticismConfig())
+    assert second is not None and second.found and [e.name for e in second.components] == ["cable_anchors"]
+    assert second.row.explained >= 0.3 and second.row.evidence >= 10 and set(second.row.values) == {"drag",
+                                                                                                "anchor_offset"}
+    assert "kept cable_anchors" in second.text() and "-> found" in second.text()
+    assert revisit_stage(model, crit, _stage(()), FIT, ~FIT, [], config=config, criticism=CriticismConfig()) is None
+    only_top = MismatchConfig(components=(SensorBias(), AirDrag()))
+    assert revisit_stage(model, crit, first, FIT, ~FIT, [], config=only_top, criticism=CriticismConfig()) is None

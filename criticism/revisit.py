@@ -1,0 +1,109 @@
+"""A second look at the mismatch stage once criticism has a suspect.
+
+The stage decides each component change on the model it has (criticism.mismatch). When the data
+carry an effect the model lacks, a component whose law is right can still fit worse without it:
+a cable hysteresis nobody modelled softens the cables while the actuators reel them in, which is
+the tension the tension-limited actuator's law reads, so that actuator loses to DART's motors
+and the stage rejects it. Criticism then ranks the hysteresis first but cannot find it, since
+the model under it still has the wrong actuator.
+
+So when criticism ranks an effect e first with positive evidence without finding it, and the
+stage kept some components and rejected others, the rejected ones (e itself excepted) are tried
+again: the stage's rounds on the model with e, from e's joint fit. The components kept now and
+e are scored together against the ranking's base (criticism.candidate: explained fraction and
+evidence, k = all their parameters), and e is **found** with them when that row reaches
+criticism's ``min_evidence`` and ``min_fraction``. The replication check is not repeated for the
+pair: the held-out flop, which neither the stage nor the fit sees, is the test.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from criticism.candidate import Candidate, effective_counts, scored
+from criticism.mismatch import MismatchConfig, MismatchReport
+from criticism.search import Criticism, CriticismConfig
+from criticism.stage_journal import journalled_stage
+from physics.effects import Effect, effect_from_config
+from physics.trajectory_objective import TrajectoryObjective
+
+__all__ = ["Revisit", "revisit_stage"]
+
+
+@dataclass(frozen=True)
+class Revisit:
+    """effect: the suspect's name; tried: the components tried again; report: the stage on the
+    model with the suspect; row: the suspect with the components kept now, scored against the
+    ranking's base (None when none was kept); found: whether that row passes criticism's bars."""
+
+    effect: str
+    tried: tuple[str, ...]
+    report: MismatchReport
+    row: Candidate | None
+    found: bool
+
+    @property
+    def components(self) -> tuple[Effect, ...]:
+        """The components kept on the second look."""
+        return self.report.effects
+
+    def text(self) -> str:
+        """One line for the report."""
+        head = f"second look at the stage with {self.effect}: tried {', '.join(self.tried)}"
+        if self.row is None:
+            return head + "; none kept"
+        kept = ", ".join(e.name for e in self.components)
+        verdict = "found" if self.found else "not found"
+        return (f"{head}; kept {kept}; {self.effect} with {kept} explains {self.row.explained:.1%} of the held-out "
+                f"error (evidence {self.row.evidence:.1f}) -> {verdict}")
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-able record."""
+        return {"effect": self.effect, "tried": list(self.tried), "kept": [e.config() for e in self.components],
+                "explained": None if self.row is None else self.row.explained,
+                "evidence": None if self.row is None else self.row.evidence, "found": self.found}
+
+
+def _suspect(crit: Criticism, stage: MismatchReport, config: MismatchConfig) -> tuple[Candidate, list[Effect]] | None:
+    """The top effect and the stage's rejected components worth a second look, or None."""
+    top = crit.ranking[0] if crit.ranking else None
+    if crit.found is not None or top is None or not top.evidence > 0 or not top.theta or not stage.effects:
+        return None
+    kept = {e.name for e in stage.effects}
+    rejected = [c for c in config.components if c.name not in kept and c.name != top.name]
+    return (top, rejected) if rejected else None
+
+
+def revisit_stage(model: TrajectoryObjective, crit: Criticism, stage: MismatchReport, fit: np.ndarray,
+                  held: np.ndarray, held_idx: Sequence[int], *, config: MismatchConfig,
+                  criticism: CriticismConfig, journal_dir: Path | None = None,
+                  progress: bool = True) -> Revisit | None:
+    """The second look of the module docstring on ``model`` (the pass's model, at whose re-tuned θ̃
+    ``crit`` ranked); fit, held: masks (S,) over its segments, held_idx: the held-out trajectories.
+    None when there is no suspect or nothing to try again."""
+    chosen = _suspect(crit, stage, config)
+    if chosen is None:
+        return None
+    top, rejected = chosen
+    effect = effect_from_config(top.config)
+    suspect = model.with_effects(tuple(model.effects) + (effect,))
+    report = journalled_stage(suspect, fit, held_idx, config=replace(config, components=tuple(rejected)),
+                              journal_dir=journal_dir, progress=progress, theta=np.asarray(top.theta, float))
+    tried = tuple(c.name for c in rejected)
+    if not report.effects:
+        return Revisit(top.name, tried, report, None, False)
+    after = suspect.with_effects(tuple(suspect.effects) + report.effects)
+    theta = np.asarray(report.theta, float)
+    parts = np.asarray(after.evaluate_parts(theta), float)
+    n_fit, n_held = effective_counts(after.residuals(theta), fit, held)
+    D = model.space.dim
+    values = {n: float(v) for n, v in zip(after.space.names[D:], theta[D:], strict=True)}
+    row = scored(top.name, "effect", values, parts, fit, held, (crit.base_fit, crit.base_held), n_fit, n_held,
+                 len(values), top.config, top.placements)
+    row = replace(row, stage="revisit", theta=tuple(float(v) for v in theta))
+    found = row.evidence >= criticism.min_evidence and row.explained >= criticism.min_fraction
+    return Revisit(top.name, tried, report, row, found)
