@@ -221,7 +221,8 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "estimates": d.passes[0].estimates(),
            "stage": None if d.mismatch is None else {"kept": [e.name for e in d.mismatch.effects],
                                                      "ratios": d.mismatch.ratios()},
-           "read_contact": read_contact, "contact": None if d.contact is None else d.contact.as_dict()}
+           "read_contact": read_contact, "contact": None if d.contact is None else d.contact.as_dict(),
+           "revisits": [p.revisit.as_dict() for p in d.passes if p.revisit is not None]}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
     return row
