@@ -80,7 +80,8 @@ class DiagnoseConfig:
     keeps nothing (tests/criticism/test_mismatch.py), so the rest of the loop is as without it;
     measure_at_rest: add the effects the resting robot shows (:func:`shown_at_rest`) before identifying;
     read_contact: read the end caps' shape and the observations' offset from the flops first
-    (criticism.contact; off by default until the benchmarks measured it on every data set);
+    (criticism.contact; off by default: on the end caps it reads, the mismatch stage predicted
+    held-out flops no better, docs/diagnose.md);
     revisit: when criticism ranks an effect first without finding it, try the components the stage
     rejected again with that effect in the model (criticism.revisit)."""
 
