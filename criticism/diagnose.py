@@ -347,6 +347,7 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
             if row is None:
                 break
             added = added + step.additions
+            tries = superseded(tries, added)
             ident = identify_from(fit_objective.with_effects(added), np.asarray(row.theta, float),
                                   budget=config.budget, candidates=config.candidates, seed=config.seed + k + 1,
                                   journal=_journal(journals, k + 1), progress=progress)
