@@ -97,7 +97,8 @@ def revisit_stage(model: TrajectoryObjective, crit: Criticism, stage: MismatchRe
     if not report.effects:
         return Revisit(top.name, tried, report, None, False)
     after = suspect.with_effects(tuple(suspect.effects) + report.effects)
-    theta = np.asarray(report.theta, float)
+    stage_values = dict(zip(report.names, np.asarray(report.theta, float).tolist(), strict=True))
+    theta = np.array([stage_values[n] for n in after.space.names])   # the stage orders its effects its own way
     parts = np.asarray(after.evaluate_parts(theta), float)
     n_fit, n_held = effective_counts(after.residuals(theta), fit, held)
     D = model.space.dim

@@ -179,9 +179,9 @@ def test_twelve_places_to_choose_from_do_not_make_noise_a_mass() -> None:
     assert claims == [None] * 10
 
 
-def _stage(effects: tuple, theta: np.ndarray | None = None) -> SimpleNamespace:
-    """A stand-in for a MismatchReport: the components kept and the θ it ends at."""
-    return SimpleNamespace(effects=effects, theta=theta)
+def _stage(effects: tuple, theta: np.ndarray | None = None, names: tuple = ()) -> SimpleNamespace:
+    """A stand-in for a MismatchReport: the components kept, the θ it ends at and θ's names."""
+    return SimpleNamespace(effects=effects, theta=theta, names=names)
 
 
 def test_the_second_look_finds_an_effect_with_the_component_the_stage_rejected(monkeypatch) -> None:
@@ -204,7 +204,8 @@ def test_the_second_look_finds_an_effect_with_the_component_the_stage_rejected(m
         assert [c.name for c in config.components] == ["cable_anchors"]      # only what the stage rejected
         extended = objective.with_effects(tuple(objective.effects) + (CableAnchors(),))
         fitted = polish(extended, np.r_[theta, 0.0], fit)
-        return _stage((CableAnchors(),), fitted.theta)
+        order = [*range(T6.dim), extended.space.dim - 1, extended.space.dim - 2]  # the stage's own effect order
+        return _stage((CableAnchors(),), fitted.theta[order], tuple(np.array(extended.space.names)[order]))
 
     monkeypatch.setattr("criticism.revisit.journalled_stage", stage)
     first = _stage((SensorBias(),))
