@@ -20,6 +20,7 @@ import xarray as xr
 
 from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
 from belief.html_report import Page, command_line, data_section, parameter_table, reproduce_section
+from criticism.candidate import place_text
 from criticism.diagnose import Diagnosis, Pass
 from criticism.report import diagnosis_text
 
@@ -48,9 +49,9 @@ def _ranking(page: Page, p: Pass) -> None:
                               f"{len(crit.floor.values)} parameters moved"]]
     classes = [""]
     for k, c in enumerate(crit.ranking, 1):
-        found = crit.found is not None and c.name == crit.found.name
+        found = p.found is not None and c.name == p.found.name
         rows.append([f"{k}. {c.name}" + (" (found)" if found else ""), c.evidence, f"{c.explained:.1%}",
-                     _values(c.values)])
+                     _values(c.values) + place_text(c)])
         classes.append("identified" if found else "")
     page.table(["effect", "evidence (ΔBIC over the floor)", "held-out residual explained", "estimate"], rows,
                classes=classes)
@@ -69,6 +70,9 @@ def _pass(page: Page, k: int, p: Pass, d: Diagnosis) -> None:
     """One pass: its model, ranking, outcome, the re-identified effect parameters and the pinned parameters."""
     page.subsection(f"Pass {k}: model T6" + "".join(f" + {e}" for e in p.effects))
     _ranking(page, p)
+    if p.revisit is not None:
+        line = p.revisit.text()
+        page.paragraph(f"{line[0].upper()}{line[1:]} (docs/diagnose.md, \"A second look at the stage\").")
     if p.added is None or p.held_after is None:
         page.paragraph(f"Verdict: {p.criticism.verdict}. No effect explains enough of the held-out residual left by "
                        "the re-tuned model, so none was added.")

@@ -7,6 +7,8 @@ import argparse
 import base64
 import html
 import re
+from dataclasses import replace
+from types import SimpleNamespace
 
 import matplotlib
 
@@ -19,9 +21,11 @@ from belief import Belief, SobolCandidates, at_bounds  # noqa: E402
 from belief.html_report import command_line  # noqa: E402
 from criticism import Candidate, Criticism, Diagnosis, Pass  # noqa: E402
 from criticism.html_report import write_diagnose_report  # noqa: E402
+from criticism.revisit import Revisit  # noqa: E402
 from embeddings import Identity  # noqa: E402
 from physics import FlopController, ParameterSpace, load_trajectory, save_trajectory, simulate  # noqa: E402
 from physics.cli import main  # noqa: E402
+from physics.effects import TensionLimitedActuation  # noqa: E402
 
 T6 = ParameterSpace.t6()
 
@@ -78,6 +82,28 @@ def test_diagnose_report_holds_the_run_the_passes_and_the_parameters(tmp_path, t
     for name, (verdict, _) in d.belief.verdicts.items():
         assert re.search(rf"<td>{name}</td>.*?<td>{verdict}</td>", page), name
     assert "of its prior range" in page and "How to reproduce" in page
+
+
+def test_a_pass_found_on_the_second_look_is_marked_and_explained(tmp_path, two_files) -> None:
+    """An effect criticism ranked first without finding it, found on the second look at the stage
+    (criticism.revisit) with a component: the ranking marks it, the page prints the second look,
+    and a placed effect shows where it sits."""
+    d = _diagnosis()
+    step = d.passes[0]
+    ranked = replace(step.criticism.ranking[0], explained=0.15)
+    mass = Candidate("point_mass", "effect", {"point_mass": 0.5}, 1.0, 1.9, 0.05, -2.0,
+                     config={"effect": "point_mass", "rod": 3, "position": -0.6}, placements=12)
+    step.criticism = replace(step.criticism, ranking=[ranked, mass], verdict="unexplained", found=None)
+    row = replace(ranked, explained=0.41, evidence=20.6)
+    step.revisit = Revisit("actuator_delay", ("tension_limited_actuator",),
+                           SimpleNamespace(effects=(TensionLimitedActuation(),)), row, True)
+    args = argparse.Namespace(data=two_files, out=str(tmp_path), held_out=None, effects=None, budget=40, passes=1,
+                              horizon=25, candidates=2048, seed=0, no_progress=True, skip_checks=False)
+    page = write_diagnose_report(tmp_path, d, [load_trajectory(f) for f in two_files], args).read_text()
+    assert "1. actuator_delay (found)" in page
+    assert "Second look at the stage with actuator_delay: tried tension_limited_actuator; kept " \
+           "tension_limited_actuator" in page and "-&gt; found" in page
+    assert "rod=3, position=-0.6; best of 12 places" in page
 
 
 @pytest.mark.slow
