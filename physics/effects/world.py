@@ -242,7 +242,8 @@ class PointMass(Effect):
     length from its centre (toward node 2·rod + 1): a sensor box or battery nobody modelled.
 
     ``rod=None`` is the mass whose place is unknown, as criticism's catalog holds it: its
-    :meth:`placements` are the 12 masses at ± ``position`` on each rod, and it builds no model itself."""
+    :meth:`placements` are the 12 masses at ± ``position`` on each rod (6 at the centre, ``position`` 0),
+    and it builds no model itself."""
 
     name = "point_mass"
     description = "an extra point mass on one rod"
@@ -261,7 +262,8 @@ class PointMass(Effect):
     def placements(self) -> tuple[Effect, ...]:
         if self.rod is not None:
             return (self,)
-        return tuple(PointMass(rod, side * self.position) for rod in range(6) for side in (1.0, -1.0))
+        sides = (1.0, -1.0) if self.position else (1.0,)          # at the centre both ends are one place
+        return tuple(PointMass(rod, side * self.position) for rod in range(6) for side in sides)
 
     def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
         if self.rod is None:

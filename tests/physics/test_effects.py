@@ -174,6 +174,7 @@ def test_an_unplaced_point_mass_offers_each_rod_and_end_and_builds_no_model():
     places = unplaced.placements()
     assert {(p.rod, p.position) for p in places} == {(r, s * 0.6) for r in range(6) for s in (1, -1)}
     assert all(p.placements() == (p,) for p in places) and len(set(places)) == 12
+    assert [(p.rod, p.position) for p in PointMass(rod=None, position=0.0).placements()] == [(r, 0.0) for r in range(6)]
     with pytest.raises(ParameterError, match="no place to build a model"):
         T6Model(_theta([unplaced], point_mass=1.0), effects=[unplaced])
 
