@@ -392,7 +392,7 @@ def main(argv: list[str] | None = None) -> int:
                     "2 draws each flop's actuation from the seed; give such runs their own --out)")
     ap.add_argument("--journals", default=None, metavar="DIR",
                     help="journal each run's diagnosis under DIR (a rerun with another criticism reuses its mismatch "
-                         "stage and identification)")
+                         "stage and first identification; a journal of another problem is an error)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     args = ap.parse_args(argv)
