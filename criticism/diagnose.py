@@ -330,18 +330,11 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
         first_belief, passes = ident.belief, []
         for k in range(config.passes):
             model = full.with_effects(added)
-            theta = np.asarray(ident.best_theta, float)
-            structure = residual_summary(residual_dataset(model, theta))
-            crit = criticize(model, theta, fit=fit, held=held, effects=tries, config=config.criticism,
-                             structure=structure, progress=progress)
-            pinned = retuned_at_bounds(model.space, theta, crit.theta, ident.belief, tolerance=config.bound_tolerance)
-            theta = crit.theta          # re-tuned on the fit trajectories: the fair "before"
-            step = Pass(tuple(e.name for e in added), model.space.names, theta, crit, _held_errors(model, theta, held),
-                        at_bounds=pinned)
+            step = _criticize(model, ident, tries, (fit, held), config=config, progress=progress)
             passes.append(step)
             if stage is not None and config.mismatch is not None and config.revisit:
-                step.revisit = revisit_stage(model, crit, stage, fit, held, held_idx, config=config.mismatch,
-                                             criticism=config.criticism, progress=progress,
+                step.revisit = revisit_stage(model, step.criticism, stage, fit, held, held_idx,
+                                             config=config.mismatch, criticism=config.criticism, progress=progress,
                                              journal_dir=None if journals is None else journals / f"revisit{k}")
             row = step.found
             if row is None:
@@ -352,14 +345,35 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
                                   budget=config.budget, candidates=config.candidates, seed=config.seed + k + 1,
                                   journal=_journal(journals, k + 1), progress=progress)
             _record_after(step, row.name, full.with_effects(added), ident, held)
-        settings = {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
-                    "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
-                    "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,
-                    "read_contact": config.read_contact, "revisit": config.revisit,
-                    "fit_trajectories": fit_idx, "segments": list(full.segments)}
+        settings = _settings(config, fit_idx, full.segments)
         return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown, contact)
     finally:
         full.close()
+
+
+def _criticize(model: TrajectoryObjective, ident: IdentificationResult, tries: Sequence[Effect],
+               masks: tuple[np.ndarray, np.ndarray], *, config: DiagnoseConfig, progress: bool) -> Pass:
+    """One pass before anything is added: criticism of ``model`` at the identification's θ̂ over
+    the catalog ``tries``, with the residual's structure, the parameters the re-tuning pinned at a
+    bound and the held-out error at the re-tuned θ̃; masks: (fit, held) over the segments."""
+    fit, held = masks
+    theta = np.asarray(ident.best_theta, float)
+    structure = residual_summary(residual_dataset(model, theta))
+    crit = criticize(model, theta, fit=fit, held=held, effects=tries, config=config.criticism,
+                     structure=structure, progress=progress)
+    pinned = retuned_at_bounds(model.space, theta, crit.theta, ident.belief, tolerance=config.bound_tolerance)
+    retuned = crit.theta          # re-tuned on the fit trajectories: the fair "before"
+    return Pass(tuple(e.name for e in model.effects), model.space.names, retuned, crit,
+                _held_errors(model, retuned, held), at_bounds=pinned)
+
+
+def _settings(config: DiagnoseConfig, fit_idx: Sequence[int], segments: Sequence[str]) -> dict[str, Any]:
+    """The settings a Diagnosis records: the error's, the identifications' and the loop's."""
+    return {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
+            "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
+            "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,
+            "read_contact": config.read_contact, "revisit": config.revisit,
+            "fit_trajectories": list(fit_idx), "segments": list(segments)}
 
 
 def _journal(directory: Path | None, k: int) -> Path | None:

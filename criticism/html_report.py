@@ -20,7 +20,7 @@ import xarray as xr
 
 from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
 from belief.html_report import Page, command_line, data_section, parameter_table, reproduce_section
-from criticism.candidate import place_text
+from criticism.candidate import place_text, values_text
 from criticism.diagnose import Diagnosis, Pass
 from criticism.report import diagnosis_text
 
@@ -32,14 +32,11 @@ _FIGURES = (
     ("residual_nodes.png", "RMS residual per node on the held-out data, before and after."),
     ("ranking.png", "What each effect explains of the held-out residual on the first pass; dashed: the floor, "
                     "what re-tuning the model's own parameters explains."),
-    ("signature.png", "The found effect's signature (how the prediction moves when the effect is switched on at "
-                      "its fitted size) against the residual's component along it: where the effect explains the "
-                      "residual, the two curves coincide."),
+    ("signature.png", "The found effect's signature (how the prediction moves when the effect, with any component "
+                      "the second look let in beside it, is switched on at its fitted size) against the "
+                      "residual's component along it: where the effect explains the residual, the two curves "
+                      "coincide."),
 )
-
-
-def _values(values: dict[str, float]) -> str:
-    return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
 
 
 def _ranking(page: Page, p: Pass) -> None:
@@ -51,7 +48,7 @@ def _ranking(page: Page, p: Pass) -> None:
     for k, c in enumerate(crit.ranking, 1):
         found = p.found is not None and c.name == p.found.name
         rows.append([f"{k}. {c.name}" + (" (found)" if found else ""), c.evidence, f"{c.explained:.1%}",
-                     _values(c.values) + place_text(c)])
+                     values_text(c.values) + place_text(c)])
         classes.append("identified" if found else "")
     page.table(["effect", "evidence (ΔBIC over the floor)", "held-out residual explained", "estimate"], rows,
                classes=classes)

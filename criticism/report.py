@@ -10,9 +10,10 @@ Figures (written to the output directory):
   model) and after (the final model), phases shaded (criticism.residuals);
 - ``residual_nodes.png``: RMS residual per node and axis before and after;
 - ``ranking.png``: held-out explained fraction of each effect on the first pass, the floor dashed;
-- ``signature.png``: the first found effect's signature s_i = x̂_i(with it) - x̂_i(without), its
-  norm against the residual's component along it, (r_i · s_i)/||s_i||: where the effect explains
-  the residual the two curves coincide.
+- ``signature.png``: the first pass's found effect's signature s_i = x̂_i(with it) - x̂_i(without)
+  (with the components a second look let in beside it, criticism.revisit), its norm against the
+  residual's component along it, (r_i · s_i)/||s_i||: where the effect explains the residual the
+  two curves coincide.
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ import xarray as xr
 from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
 from criticism.diagnose import Diagnosis, Pass
 from criticism.residuals import residual_dataset
-from physics.effects import Effect, effect_from_config
+from physics.effects import Effect
 from physics.model_file import write_model_file
 from physics.trajectory_objective import TrajectoryObjective
 
@@ -197,17 +198,19 @@ def _plot_ranking(d: Diagnosis, path: Path) -> None:
 
 
 def _plot_signature(d: Diagnosis, trajectories: Sequence[xr.Dataset], path: Path) -> bool:
-    """The first found effect's signature against the residual of pass 1 (module docstring)."""
+    """The signature of pass 1's found effect (and what came in with it) against the residual
+    (module docstring); False when pass 1 found nothing."""
     import matplotlib.pyplot as plt
 
     p = d.passes[0]
-    if p.criticism.found is None:
+    row = p.found
+    if row is None:
         return False
-    effect = effect_from_config(p.criticism.found.config)
     base = _objective(d, trajectories, list(d.first_model))
-    with_it = base.with_effects([*d.first_model, effect])
+    with_it = base.with_effects([*d.first_model, *p.additions])
+    label = " + ".join(e.name for e in p.additions)
     k = d.held_out[0] if d.held_out else 0
-    theta_e = np.asarray(p.criticism.found.theta, float)
+    theta_e = np.asarray(row.theta, float)
     x_b = base.predictions(theta_e[:base.space.dim])[k].values
     x_e = with_it.predictions(theta_e)[k].values
     obs = np.asarray(base.trajectories[k]["nodes"].transpose("time", "node", "axis").values, float)
@@ -218,11 +221,11 @@ def _plot_signature(d: Diagnosis, trajectories: Sequence[xr.Dataset], path: Path
     fig, ax = plt.subplots(figsize=(8, 3))
     ax.plot(t, 1e3 * np.linalg.norm(r, axis=1), color="tab:gray", lw=0.8, label="||r|| (without the effect)")
     ax.plot(t, 1e3 * along, color="tab:blue", label="r along the signature")
-    ax.plot(t, 1e3 * norm, color="tab:green", ls="--", label=f"||signature|| of {effect.name}")
+    ax.plot(t, 1e3 * norm, color="tab:green", ls="--", label=f"||signature|| of {label}")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("[mm]")
-    found = ", ".join(f"{n}={v:.3g}" for n, v in p.criticism.found.values.items())
-    ax.set_title(f"trajectory {k}: {effect.name} at {found}", fontsize=9)
+    found = ", ".join(f"{n}={v:.3g}" for n, v in row.values.items())
+    ax.set_title(f"trajectory {k}: {label} at {found}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -21,6 +21,7 @@ from belief import Belief, SobolCandidates, at_bounds  # noqa: E402
 from belief.html_report import command_line  # noqa: E402
 from criticism import Candidate, Criticism, Diagnosis, Pass  # noqa: E402
 from criticism.html_report import write_diagnose_report  # noqa: E402
+from criticism.report import write_report  # noqa: E402
 from criticism.revisit import Revisit  # noqa: E402
 from embeddings import Identity  # noqa: E402
 from physics import FlopController, ParameterSpace, load_trajectory, save_trajectory, simulate  # noqa: E402
@@ -76,7 +77,7 @@ def test_diagnose_report_holds_the_run_the_passes_and_the_parameters(tmp_path, t
     assert len(_self_contained(page)) == 1                      # the one figure present, embedded
     assert html.escape(command_line("diagnose", args)) in page and "tensegrid diagnose" in page
     assert "Data and checks" in page and "rods measure 1.740 m" in page and two_files[1] in page
-    assert "Effects found and added: actuator_delay" in page and "actuator_delay = 0.08" in page
+    assert "Effects found and added: actuator_delay" in page and "actuator_delay=0.08" in page
     assert "E before [m²]" in page and "-75.0%" in page          # held-out error 2.0 -> 0.5
     assert "Model inadequacy" in page                           # the parameter the re-tuning pinned
     for name, (verdict, _) in d.belief.verdicts.items():
@@ -116,3 +117,23 @@ def test_the_diagnose_command_writes_the_report(tmp_path, two_files, capsys) -> 
     pngs = sorted(p.name for p in out.glob("*.png"))
     assert len(_self_contained(page)) == len(pngs) >= 3
     assert "tensegrid diagnose" in page and "Pass 1: model T6" in page and "actuator_delay" in page
+
+
+def test_the_signature_figure_shows_an_effect_found_on_the_second_look(tmp_path, two_files) -> None:
+    """criticism.report draws signature.png for an effect the second look found (with the component
+    it let in), as for one criticism found itself; the page embeds it."""
+    d = _diagnosis()
+    d.settings["windows"] = 3
+    step = d.passes[0]
+    ranked = replace(step.criticism.ranking[0], theta=tuple(np.append(T6.nominal, 0.08)),
+                     config={"effect": "actuator_delay"})
+    step.criticism = replace(step.criticism, ranking=[ranked], verdict="unexplained", found=None)
+    step.revisit = Revisit("actuator_delay", ("tension_limited_actuator",),
+                           SimpleNamespace(effects=(TensionLimitedActuation(),)), replace(ranked, evidence=20.6), True)
+    trajectories = [load_trajectory(f) for f in two_files]
+    paths = write_report(d, trajectories, tmp_path)
+    assert tmp_path / "signature.png" in paths
+    args = argparse.Namespace(data=two_files, out=str(tmp_path), held_out=None, effects=None, budget=40, passes=1,
+                              horizon=25, candidates=2048, seed=0, no_progress=True, skip_checks=False)
+    page = write_diagnose_report(tmp_path, d, trajectories, args).read_text()
+    assert len(_self_contained(page)) == 4                      # residual_time, residual_nodes, ranking, signature
