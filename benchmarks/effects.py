@@ -9,7 +9,7 @@ the resting face goes over one of its three edges, so a flop 120° away alone is
 motion rotated; with ``--held-out actuation`` (the default) the held-out flop also changes 6
 cables by 30 % instead of 4 by 20 %, ``--held-out heading`` keeps the first protocol.
 
-Scenarios: one per catalog effect at the size in SIZES; ``point_mass_elsewhere`` (the mass on
+Scenarios: one per catalog effect at the size in effects_table.SIZES; ``point_mass_elsewhere`` (the mass on
 rod 3 at −0.6 of its half length, where the catalog's own instance is not: its place is searched,
 PointMass.placements); ``none`` (no extra effect);
 ``outside`` (a mis-zeroed encoder on one cable, physics.effects.EncoderOffset, not in the
@@ -52,28 +52,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from effects_table import SIZES, print_rows, summarize
 from jsonl_rows import read_rows
 
 from criticism import DiagnoseConfig, diagnose
 from criticism.mismatch import MismatchConfig
 from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
-from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, effect_from_config, model_space
+from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, model_space
 
-#: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
-#: differences between two engines' SUPERballs are (an actuator reaching its target in 0.11 s,
-#: caps touching the ground at 31 mm instead of 60 mm).
-SIZES = {"ground_slope": {"slope_x": 0.08}, "air_drag": {"drag": 8.0}, "ground_viscosity": {"ground_viscosity": 150.0},
-         "cable_hysteresis": {"hysteresis": 0.5}, "nonlinear_stiffness": {"stiffness_quadratic": 3.0},
-         "actuator_delay": {"actuator_delay": 0.08}, "rate_limited_actuator": {"actuator_rate": 1.6},
-         "sensor_bias": {"sensor_bias_z": 0.02}, "end_cap_radius": {"cap_radius_change": -0.029},
-         "point_mass": {"point_mass": 1.5}, "encoder_offset": {"encoder_offset": 0.05}}
 MIXES = {"mix": ("ground_slope", "actuator_delay"), "actuator+contact": ("rate_limited_actuator", "end_cap_radius")}
 #: scenarios whose effect sits where the catalog's default instance does not: the search must find its place
 PLACED = {"point_mass_elsewhere": PointMass(rod=3, position=-0.6)}
@@ -109,7 +101,7 @@ def make_data(name: str, seed: int, *, duration: float = 1.5, noise: float = 0.0
     effects = scenario_effects(name)
     rng = np.random.default_rng([seed, 8])
     base = ParameterSpace.t6()
-    truth = dict(zip(base.names, base.nominal * (1 + rng.uniform(-0.05, 0.05, base.dim))))
+    truth = dict(zip(base.names, base.nominal * (1 + rng.uniform(-0.05, 0.05, base.dim)), strict=True))
     for e in effects:
         truth.update(SIZES[e.name])
     theta = model_space(effects).as_array(truth, check_bounds=False)
@@ -226,135 +218,6 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
     return row
-
-
-def _at_bound(effect: str, values: dict[str, float], config: dict | None = None) -> list[str]:
-    """The parameters of a fitted catalog effect within 1 % of the box width of a bound: the box of
-    the effect as fitted (``config``, Effect.config: a measured slope or bias keeps a box around
-    its measurement), of the free effect for rows that do not record it."""
-    out = []
-    for p in (effect_from_config(config) if config else EFFECT_TYPES[effect]()).parameters():
-        v, width = values.get(p.name), p.upper - p.lower
-        if v is not None and min(v - p.lower, p.upper - v) <= 0.01 * width:
-            out.append(f"{p.name} at its {'lower' if v - p.lower < p.upper - v else 'upper'} bound")
-    return out
-
-
-def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dict | None = None) -> str:
-    """The fitted size of a catalog effect next to the testbed's hidden one, in the testbed's terms
-    (slope: tilt [deg] and the angle between fitted and true floor normals; marker offset: its z
-    [mm]; delay [ms]; others in each one's own unit, the laws differing), flagged at a bound."""
-    if effect == "ground_slope":
-        from physics.effects.world import slope_normal
-        n = slope_normal(values["slope_x"], values["slope_y"])
-        a, t = truth["slope_azimuth"], truth["slope"]
-        true_n = np.array([-np.sin(t) * np.cos(a), -np.sin(t) * np.sin(a), np.cos(t)])
-        text = (f"tilt {np.degrees(np.arccos(n[2])):.2f} deg (true {np.degrees(t):.2f}), normals "
-                f"{np.degrees(np.arccos(np.clip(n @ true_n, -1, 1))):.2f} deg apart")
-    elif effect == "sensor_bias":
-        text = f"z offset {1e3 * values['sensor_bias_z']:.1f} mm (true {1e3 * truth['marker_offset'][2]:.1f})"
-    elif effect == "actuator_delay":
-        text = f"delay {1e3 * values['actuator_delay']:.0f} ms (true {1e3 * truth['actuator_delay']:.0f})"
-    else:
-        units = {p.name: p.unit for p in EFFECT_TYPES[effect]().parameters()}
-        fitted = ", ".join(f"{k}={v:.4g} {units[k]}" for k, v in values.items())
-        text = f"{fitted} (testbed, its own law and unit: " + ", ".join(f"{k}={v}" for k, v in truth.items()) + ")"
-    return "; ".join([text, *_at_bound(effect, values, config)])
-
-
-def _searched(row: dict) -> list[str]:
-    """The effects a row's search found, in order (those measured at rest left out)."""
-    return [f for f in row["found"] if f not in row.get("measured", [])]
-
-
-def summarize(rows: list[dict]) -> None:
-    print(f"{'scenario':22s} {'seeds':>5} {'top=true':>8} {'named':>5} {'found':>6} {'claimed':>7} {'explained':>9} "
-          f"{'after/before (max)':>18} {'criticism fit (true)':>24} {'2nd found':>9}")
-    for name in dict.fromkeys(r["scenario"] for r in rows):
-        rs = [r for r in rows if r["scenario"] == name]
-        if len({r.get("held_out", "heading") for r in rs}) > 1:
-            print(f"{name}: rows of both --held-out protocols; summarize one protocol's rows at a time")
-        truth = rs[0]["truth"]
-        first = rs[0].get("larger", truth[0] if truth else None) if truth and name != "outside" else None
-        other = [t for t in truth if t != first]
-        top_ok = sum(r["top"] == first or first in r.get("measured", []) for r in rs) if first else "-"
-        found_ok = sum(first in r.get("measured", []) or _searched(r)[:1] == [first] for r in rs) if first else "-"
-        named = (sum(r["top"] == first or first in r.get("alternatives", []) + r.get("measured", []) for r in rs)
-                 if first else "-")
-        claimed = sum(bool(r["found"]) for r in rs)
-        explained = np.median([r["top_explained"] for r in rs if r["top_explained"] is not None])
-        ratios = [r["held_after"] / r["held_before"] for r in rs if r["held_after"] is not None]
-        ratio = f"{np.median(ratios):.2f} ({max(ratios):.2f})" if ratios else "-"
-        est = "-"
-        if first and name in SIZES:
-            key = next(iter(SIZES[first]))
-            vals = [r["top_values"].get(key) for r in rs if r["top"] == first]
-            est = f"{np.median(vals):.4g} ({SIZES[first][key]:.4g})" if vals else "-"
-        second = (sum(other[0] in r.get("measured", []) or _searched(r)[1:2] == [other[0]] for r in rs)
-                  if len(truth) > 1 else "-")
-        print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(named):>5} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
-              f"{ratio:>18} {est:>24} {str(second):>9}")
-    details(rows)
-    sized = [r for r in rows if r.get("held_out") == "testbed" and r["truth"] and r["top"] == r["truth"][0]]
-    if sized:
-        print("\nsizes where the true effect is ranked first (testbed):")
-    for r in sized:
-        print(f"{r['scenario']} seed {r['seed']}{' (found)' if r['found'] else ''}: "
-              + testbed_size(r["top"], r["top_values"], r["true_values"], r.get("top_config")))
-        for name, e in (r.get("estimates") or {}).items():
-            print(f"    re-identified {name}: {e['value']:.4g} in [{e.get('lower', float('nan')):.4g}, "
-                  f"{e.get('upper', float('nan')):.4g}] ({e.get('verdict', '')}{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''})")
-    staged = [r for r in rows if r.get("stage")]
-    for r in staged:
-        ratios = r["stage"]["ratios"]
-        print(f"{r['scenario']} seed {r['seed']}: mismatch stage kept {', '.join(r['stage']['kept']) or 'nothing'}; "
-              f"held-out one-step {ratios['one_step']:.2f}x, drift {ratios['drift']:.2f}x")
-
-
-def details(rows: list[dict]) -> None:
-    """The figures behind the table: the largest after/before ratios, the top evidence where
-    nothing should be claimed, and every contest between effects that would each be found
-    (margin = evidence of the true effect - that of the best other; which flop favoured it)."""
-    ratios = sorted(((r["held_after"] / r["held_before"], r["scenario"], r["seed"]) for r in rows
-                     if r.get("held_after") is not None), reverse=True)
-    print(f"\nafter/before: {sum(v <= 0.5 for v, _, _ in ratios)} of {len(ratios)} runs at most 0.5; largest: "
-          + ", ".join(f"{name} seed {seed} {v:.2f}" for v, name, seed in ratios[:3]))
-    for name in ("none", "outside", "nominal"):
-        evidence = [r["top_evidence"] for r in rows if r["scenario"] == name]
-        if evidence:
-            print(f"{name}: top evidence {min(evidence):.1f} to {max(evidence):.1f} over {len(evidence)} runs")
-    contests = [r for r in rows if len(r.get("contenders") or {}) > 1 and r["truth"]]
-    print(f"\ncontests ({len(contests)} of the {sum('contenders' in r for r in rows)} runs that record contenders)")
-    for r in sorted(contests, key=lambda r: (r["scenario"], r["seed"])):
-        c, true = r["contenders"], r["truth"][0]
-        if true not in c:
-            print(f"{r['scenario']} seed {r['seed']}: the true effect is no contender; top {r['top']}")
-            continue
-        other = max((k for k in c if k != true), key=lambda k: c[k]["evidence"])
-        print(f"{r['scenario']} seed {r['seed']}: top {r['top']}, margin {c[true]['evidence'] - c[other]['evidence']:.1f} "
-              f"over {other}; fitted flops favour the truth {c[true]['fit_error'] < c[other]['fit_error']}, held-out "
-              f"{c[true]['held_error'] < c[other]['held_error']} (E_H {c[true]['held_error']:.4f} against "
-              f"{c[other]['held_error']:.4f}); alternatives {r.get('alternatives', [])}")
-    placed = [r for r in rows if r.get("true_configs") and (r.get("top_placements") or 1) > 1
-              and r["top"] == r["truth"][0]]
-    if placed:
-        right = sum(r["top_config"] == r["true_configs"][0] for r in placed)
-        print(f"\nplaced effects ranked first: at the true place in {right} of {len(placed)} runs")
-
-
-def print_rows(rows: list[dict]) -> None:
-    """One line per row: data set, seed, effects measured at rest, the top of the ranking, found, and
-    the held-out error of the first pass's re-tuned model (E before) and after the found effects;
-    the top effect's evidence, explained fraction and replication gains (criticism.replication)."""
-    print(f"\n{'scenario':18s} {'seed':>4}  {'measured at rest':18s} {'top':22s} {'E before':>10} {'E after':>10}  "
-          f"{'evidence':>8} {'explains':>8}  {'replication':22s} found")
-    for r in rows:
-        after = f"{r['held_after']:10.4g}" if r.get("held_after") is not None else f"{'-':>10}"
-        gains = (r.get("replication") or {}).get("gains") or {}
-        replication = " ".join(f"{g} {v:+.0%}" for g, v in gains.items()) or "-"
-        print(f"{r['scenario']:18s} {r['seed']:4d}  {', '.join(r.get('measured', [])) or '-':18s} {str(r['top']):22s} "
-              f"{r['held_before']:10.4g} {after}  {r['top_evidence'] or math.nan:8.1f} "
-              f"{r['top_explained'] or math.nan:8.1%}  {replication:22s} {', '.join(r['found']) or '-'}")
 
 
 def _key(row: dict) -> tuple:
