@@ -46,6 +46,7 @@ from pyro.nn import PyroParam, PyroSample
 from torch.distributions import constraints
 
 from belief.errors import BeliefError, SurrogateError
+from belief.kernel import Matern52, augment, matern52_unit
 
 __all__ = ["SurrogateConfig", "GPSurrogate"]
 
@@ -106,46 +107,6 @@ def _torch_context(num_threads: int) -> Iterator[None]:
 
 
 _DT = torch.float64
-
-
-class _Matern52(gp.kernels.Matern52):
-    """pyro's Matern-5/2 kernel; without autograd (K(X, X) of :meth:`GPSurrogate.predict`,
-    :meth:`GPSurrogate.predict_joint`) the covariance is computed with ``torch.cdist`` and in-place
-    ops, same values to ~1e-12: k(r) = s^2 (1 + sqrt5 r + 5 r^2 / 3) exp(-sqrt5 r), r = ||(x - x') / l||.
-    The large query x data cross-covariance of ``predict`` uses :func:`_matern52_unit` instead."""
-
-    def forward(self, X: torch.Tensor, Z: torch.Tensor | None = None, diag: bool = False) -> torch.Tensor:
-        if diag or torch.is_grad_enabled():
-            return super().forward(X, Z, diag)
-        Z = X if Z is None else Z
-        ls = self.lengthscale
-        s5r = torch.cdist(self._slice_input(X) / ls, self._slice_input(Z) / ls,
-                          compute_mode="donot_use_mm_for_euclid_dist").mul_(5.0**0.5)
-        # pyro annotates the kernel's variance as its PyroParam declaration; read, it is a Tensor
-        return (s5r.square() / 3.0 + s5r + 1.0).mul_(torch.exp(-s5r)).mul_(self.variance)  # type: ignore[arg-type]
-
-
-def _augment(u: torch.Tensor, query: bool) -> torch.Tensor:
-    """Rows of ``u`` (``m x d``) extended so that one matrix product gives squared distances:
-    [u, |u|^2, 1] (query) times [-2 x, 1, |x|^2]^T (data) = |u|^2 + |x|^2 - 2 u.x = |u - x|^2."""
-    sq = (u * u).sum(1, keepdim=True)
-    one = torch.ones_like(sq)
-    return torch.cat([u, sq, one], 1) if query else torch.cat([-2.0 * u, one, sq], 1)
-
-
-def _matern52_unit(q_aug: torch.Tensor, x_aug_t: torch.Tensor, d2: torch.Tensor, s: torch.Tensor,
-                   e: torch.Tensor) -> torch.Tensor:
-    """Unit-variance Matern-5/2 cross-covariance ``k x n`` between augmented query rows ``q_aug``
-    (``k x (d+2)``) and data ``x_aug_t`` (``(d+2) x n``), both pre-scaled by sqrt5 / lengthscale, so
-    that d2 = 5 r^2 and k = (1 + sqrt(d2) + d2 / 3) exp(-sqrt(d2)). ``d2``, ``s``, ``e`` are ``k x n``
-    work buffers (reused across chunks: no allocation); the result is written into ``s``.
-    The expansion is clamped at 0; its rounding near r = 0 changes k by ~1e-16 (k is smooth in d2)."""
-    torch.mm(q_aug, x_aug_t, out=d2)
-    d2.clamp_(min=0.0)
-    torch.sqrt(d2, out=s).neg_()                       # -sqrt5 r
-    torch.exp(s, out=e)                                # exp(-sqrt5 r)
-    torch.add(s, d2, alpha=-1.0 / 3.0, out=d2)         # -(sqrt5 r + 5 r^2 / 3)
-    return torch.addcmul(e, d2, e, value=-1.0, out=s)  # e (1 + sqrt5 r + 5 r^2 / 3)
 
 
 @dataclass(frozen=True)
@@ -214,7 +175,7 @@ class GPSurrogate:
         d = X.shape[1]
         t = lambda v: torch.as_tensor(v, dtype=_DT)  # noqa: E731
         ls0 = float(np.clip(0.3 * np.sqrt(d), 0.2, 2.0))
-        kernel = _Matern52(input_dim=d, variance=t(1.0), lengthscale=torch.full((d,), ls0, dtype=_DT))
+        kernel = Matern52(input_dim=d, variance=t(1.0), lengthscale=torch.full((d,), ls0, dtype=_DT))
         # pyro's annotations declare these attributes PyroParam; PyroModule also accepts a PyroSample (a prior)
         kernel.lengthscale = PyroSample(  # type: ignore[assignment]
             dist.LogNormal(t(np.sqrt(2.0) + 0.5 * np.log(d)), t(np.sqrt(3.0))).expand([d]).to_event(1)
@@ -330,7 +291,7 @@ class GPSurrogate:
             X=X,
             y=model.y,
             scale=scale,
-            x_aug_t=_augment((X - 0.5) * scale, query=False).T.contiguous(),
+            x_aug_t=augment((X - 0.5) * scale, query=False).T.contiguous(),
             alpha=(alpha[:, 0] * s2).contiguous(),
             chol_t=(L.T / s2).contiguous(),
             outputscale=s2,
@@ -364,14 +325,14 @@ class GPSurrogate:
             c = self._prediction_cache()
             n = c.x_aug_t.shape[1]
             Zs = self._scale(Zq)
-            q_aug = _augment((Zs - 0.5) * c.scale, query=True)
+            q_aug = augment((Zs - 0.5) * c.scale, query=True)
             mean = torch.empty(m, dtype=_DT)
             quad = torch.empty(m, dtype=_DT)
             d2, sb, eb, wb = (torch.empty(cs, n, dtype=_DT) for _ in range(4))
             for s in range(0, m, cs):
                 e = min(s + cs, m)
                 k = e - s
-                k0 = _matern52_unit(q_aug[s:e], c.x_aug_t, d2[:k], sb[:k], eb[:k])
+                k0 = matern52_unit(q_aug[s:e], c.x_aug_t, d2[:k], sb[:k], eb[:k])
                 torch.mv(k0, c.alpha, out=mean[s:e])
                 w = torch.linalg.solve_triangular(c.chol_t, k0, upper=True, left=False, out=wb[:k])
                 torch.sum(w.mul_(w), 1, out=quad[s:e])
