@@ -33,10 +33,40 @@ def _at_bound(effect: str, values: dict[str, float], config: dict | None = None)
     return out
 
 
-def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dict | None = None) -> str:
+def catalog_equivalent(effect: str, truth: dict, row: dict | None = None) -> float | None:
+    """The testbed's hidden effect expressed in the law of the catalog effect that models it, where
+    the two laws map onto each other (None elsewhere):
+
+    - cable_hysteresis: the testbed's cables pull k (1 - h_t) while shortening and k while
+      lengthening, the catalog's k while shortening and k (1 + h) while lengthening; k is a T6
+      parameter, so the law is matched by its ratio: 1 + h = 1 / (1 - h_t), h = h_t / (1 - h_t)
+      (exact when the fit's k is (1 - h_t) times the testbed's);
+    - air_drag: the testbed's rod ends feel -d v, the catalog's -c |v| v; the c closest in force
+      over the speeds s of the rod ends in the row's two fit flops (least squares):
+      c = d Σ s³ / Σ s⁴.
+    """
+    if effect == "cable_hysteresis":
+        return truth["hysteresis"] / (1.0 - truth["hysteresis"])
+    if effect == "air_drag" and row is not None:
+        from physics import load_trajectory
+        from testbed.datasets import cached_dataset
+        files = cached_dataset(row["scenario"], row["seed"], noise=0.0002, version=row.get("flops_version", 1))
+        cubes = quartics = 0.0
+        for label in ("flop_0", "flop_1"):
+            ds = load_trajectory(files[label])
+            x = ds["nodes"].transpose("time", "node", "axis").values
+            speed = np.linalg.norm(np.gradient(x, ds["time"].values, axis=0), axis=2)
+            cubes, quartics = cubes + np.nansum(speed ** 3), quartics + np.nansum(speed ** 4)
+        return truth["drag"] * cubes / quartics
+    return None
+
+
+def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dict | None = None,
+                 equivalent: float | None = None) -> str:
     """The fitted size of a catalog effect next to the testbed's hidden one, in the testbed's terms
     (slope: tilt [deg] and the angle between fitted and true floor normals; marker offset: its z
-    [mm]; delay [ms]; others in each one's own unit, the laws differing), flagged at a bound."""
+    [mm]; delay [ms]; others in each one's own unit, with ``equivalent``, the truth in the
+    catalog's law, when given: :func:`catalog_equivalent`), flagged at a bound."""
     if effect == "ground_slope":
         from physics.effects.world import slope_normal
         n = slope_normal(values["slope_x"], values["slope_y"])
@@ -51,8 +81,28 @@ def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dic
     else:
         units = {p.name: p.unit for p in EFFECT_TYPES[effect]().parameters()}
         fitted = ", ".join(f"{k}={v:.4g} {units[k]}" for k, v in values.items())
-        text = f"{fitted} (testbed, its own law and unit: " + ", ".join(f"{k}={v}" for k, v in truth.items()) + ")"
+        own = ", ".join(f"{k}={v}" for k, v in truth.items() if v)
+        text = (f"{fitted} (testbed {own} in its own law" + (f"; {equivalent:.4g} in the catalog's)"
+                if equivalent is not None else ")"))
     return "; ".join([text, *_at_bound(effect, values, config)])
+
+
+def _sizes(rows: list[dict]) -> None:
+    """The sizes of the testbed rows whose true effect is ranked first, and its re-identified
+    interval, with whether it holds the truth in the catalog's law (:func:`catalog_equivalent`)."""
+    sized = [r for r in rows if r.get("held_out") == "testbed" and r["truth"] and r["top"] == r["truth"][0]]
+    if sized:
+        print("\nsizes where the true effect is ranked first (testbed):")
+    for r in sized:
+        equivalent = catalog_equivalent(r["top"], r["true_values"], r)
+        print(f"{r['scenario']} seed {r['seed']}{' (found)' if r['found'] else ''}: "
+              + testbed_size(r["top"], r["top_values"], r["true_values"], r.get("top_config"), equivalent))
+        for name, e in (r.get("estimates") or {}).items():
+            lower, upper = e.get("lower", float("nan")), e.get("upper", float("nan"))
+            holds = (f"; holds the catalog-law truth {equivalent:.4g}: {'yes' if lower <= equivalent <= upper else 'NO'}"
+                     if equivalent is not None and name in r["top_values"] else "")
+            print(f"    re-identified {name}: {e['value']:.4g} in [{lower:.4g}, {upper:.4g}] ({e.get('verdict', '')}"
+                  f"{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''}){holds}")
 
 
 def _searched(row: dict) -> list[str]:
@@ -97,15 +147,7 @@ def summarize(rows: list[dict]) -> None:
         print(f"{name:22s} {len(rs):5d} {str(top_ok):>8} {str(named):>5} {str(found_ok):>6} {claimed:7d} {explained:9.1%} "
               f"{ratio:>18} {est:>24} {str(second):>9}")
     details(rows)
-    sized = [r for r in rows if r.get("held_out") == "testbed" and r["truth"] and r["top"] == r["truth"][0]]
-    if sized:
-        print("\nsizes where the true effect is ranked first (testbed):")
-    for r in sized:
-        print(f"{r['scenario']} seed {r['seed']}{' (found)' if r['found'] else ''}: "
-              + testbed_size(r["top"], r["top_values"], r["true_values"], r.get("top_config")))
-        for name, e in (r.get("estimates") or {}).items():
-            print(f"    re-identified {name}: {e['value']:.4g} in [{e.get('lower', float('nan')):.4g}, "
-                  f"{e.get('upper', float('nan')):.4g}] ({e.get('verdict', '')}{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''})")
+    _sizes(rows)
     staged = [r for r in rows if r.get("stage")]
     for r in staged:
         ratios = r["stage"]["ratios"]
