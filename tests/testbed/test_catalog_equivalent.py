@@ -1,0 +1,33 @@
+"""The testbed's hidden effects expressed in the catalog's laws (benchmarks/effects_table.catalog_equivalent),
+checked against both laws themselves."""
+from __future__ import annotations
+
+import numpy as np
+from effects_table import catalog_equivalent
+from testbed.effects import Effects
+from testbed.params import NOMINAL
+from testbed.robot import TestbedRobot
+
+from physics.cables import cable_tension
+
+
+def test_the_testbeds_hysteresis_is_the_catalogs_at_the_equivalent_size() -> None:
+    """Cables the testbed softens by h_t while shortening pull as the catalog's with stiffness
+    (1 - h_t) k and hysteresis h_t / (1 - h_t), lengthening and shortening, dampers included."""
+    h_t = 0.3
+    robot = TestbedRobot(NOMINAL, Effects(hysteresis=h_t))
+    try:
+        length = robot.rest + 0.04
+        h = catalog_equivalent("cable_hysteresis", {"hysteresis": h_t})
+        for rate in (-0.5, -0.2, 0.2, 0.5):                # m/s, far from the catalog's smoothing (0.01 m/s)
+            robot.last_length = length - rate * robot.dt
+            testbed = robot.cable_forces(length)
+            catalog = [cable_tension(0.04, rate, (1 - h_t) * robot.k, robot.c, 0.0, h) for _ in testbed]
+            np.testing.assert_allclose(testbed, catalog, rtol=1e-9)
+    finally:
+        robot.close()
+
+
+def test_a_law_without_a_map_has_no_equivalent() -> None:
+    assert catalog_equivalent("ground_viscosity", {"ground_viscosity": 150.0}) is None
+    assert catalog_equivalent("air_drag", {"drag": 3.0}) is None      # needs the row's flops
