@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from physics import ParameterSpace, load_trajectory
 from physics.effects import EFFECT_TYPES, effect_from_config
 
 #: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
@@ -33,22 +34,24 @@ def _at_bound(effect: str, values: dict[str, float], config: dict | None = None)
     return out
 
 
-def catalog_equivalent(effect: str, truth: dict, row: dict | None = None) -> float | None:
-    """The testbed's hidden effect expressed in the law of the catalog effect that models it, where
-    the two laws map onto each other (None elsewhere):
+def catalog_equivalent(effect: str, truth: dict, row: dict | None = None) -> tuple[float, float] | None:
+    """The testbed's hidden effect expressed in the law of the catalog effect that models it, as a
+    range (low, high) of sizes, where the two laws map onto each other (None elsewhere):
 
     - cable_hysteresis: the testbed's cables pull k (1 - h_t) while shortening and k while
-      lengthening, the catalog's k while shortening and k (1 + h) while lengthening; k is a T6
-      parameter, so the law is matched by its ratio: 1 + h = 1 / (1 - h_t), h = h_t / (1 - h_t)
-      (exact when the fit's k is (1 - h_t) times the testbed's);
+      lengthening, the catalog's k' while shortening and k' (1 + h) while lengthening. With the
+      T6's stiffness free, k' = (1 - h_t) k and h = h_t / (1 - h_t) match both branches (high).
+      The T6's box stops at k_lo = 0.9 k, where matching the lengthening branch gives
+      h = k / k_lo - 1 (low). The testbed's data sets use the nominal k.
     - air_drag: the testbed's rod ends feel -d v, the catalog's -c |v| v; the c closest in force
       over the speeds s of the rod ends in the row's two fit flops (least squares):
-      c = d Σ s³ / Σ s⁴.
+      c = d Σ s³ / Σ s⁴ (low = high).
     """
     if effect == "cable_hysteresis":
-        return truth["hysteresis"] / (1.0 - truth["hysteresis"])
+        t6 = ParameterSpace.t6()
+        k = t6.index("stiffnessActive")
+        return float(t6.nominal[k] / t6.lower[k] - 1.0), truth["hysteresis"] / (1.0 - truth["hysteresis"])
     if effect == "air_drag" and row is not None:
-        from physics import load_trajectory
         from testbed.datasets import cached_dataset
         files = cached_dataset(row["scenario"], row["seed"], noise=0.0002, version=row.get("flops_version", 1))
         cubes = quartics = 0.0
@@ -57,12 +60,18 @@ def catalog_equivalent(effect: str, truth: dict, row: dict | None = None) -> flo
             x = ds["nodes"].transpose("time", "node", "axis").values
             speed = np.linalg.norm(np.gradient(x, ds["time"].values, axis=0), axis=2)
             cubes, quartics = cubes + np.nansum(speed ** 3), quartics + np.nansum(speed ** 4)
-        return truth["drag"] * cubes / quartics
+        c = truth["drag"] * cubes / quartics
+        return c, c
     return None
 
 
+def _range_text(equivalent: tuple[float, float]) -> str:
+    low, high = equivalent
+    return f"{low:.4g}" if low == high else f"{low:.4g} to {high:.4g}"
+
+
 def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dict | None = None,
-                 equivalent: float | None = None) -> str:
+                 equivalent: tuple[float, float] | None = None) -> str:
     """The fitted size of a catalog effect next to the testbed's hidden one, in the testbed's terms
     (slope: tilt [deg] and the angle between fitted and true floor normals; marker offset: its z
     [mm]; delay [ms]; others in each one's own unit, with ``equivalent``, the truth in the
@@ -82,7 +91,7 @@ def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dic
         units = {p.name: p.unit for p in EFFECT_TYPES[effect]().parameters()}
         fitted = ", ".join(f"{k}={v:.4g} {units[k]}" for k, v in values.items())
         own = ", ".join(f"{k}={v}" for k, v in truth.items() if v)
-        text = (f"{fitted} (testbed {own} in its own law" + (f"; {equivalent:.4g} in the catalog's)"
+        text = (f"{fitted} (testbed {own} in its own law" + (f"; {_range_text(equivalent)} in the catalog's)"
                 if equivalent is not None else ")"))
     return "; ".join([text, *_at_bound(effect, values, config)])
 
@@ -99,7 +108,8 @@ def _sizes(rows: list[dict]) -> None:
               + testbed_size(r["top"], r["top_values"], r["true_values"], r.get("top_config"), equivalent))
         for name, e in (r.get("estimates") or {}).items():
             lower, upper = e.get("lower", float("nan")), e.get("upper", float("nan"))
-            holds = (f"; holds the catalog-law truth {equivalent:.4g}: {'yes' if lower <= equivalent <= upper else 'NO'}"
+            holds = (f"; meets the catalog-law truth {_range_text(equivalent)}: "
+                     f"{'yes' if lower <= equivalent[1] and equivalent[0] <= upper else 'NO'}"
                      if equivalent is not None and name in r["top_values"] else "")
             print(f"    re-identified {name}: {e['value']:.4g} in [{lower:.4g}, {upper:.4g}] ({e.get('verdict', '')}"
                   f"{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''}){holds}")

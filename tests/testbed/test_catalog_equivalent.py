@@ -8,22 +8,28 @@ from testbed.effects import Effects
 from testbed.params import NOMINAL
 from testbed.robot import TestbedRobot
 
+from physics import ParameterSpace
 from physics.cables import cable_tension
 
 
 def test_the_testbeds_hysteresis_is_the_catalogs_at_the_equivalent_size() -> None:
     """Cables the testbed softens by h_t while shortening pull as the catalog's with stiffness
-    (1 - h_t) k and hysteresis h_t / (1 - h_t), lengthening and shortening, dampers included."""
+    (1 - h_t) k and hysteresis h_t / (1 - h_t) (the high end), lengthening and shortening, dampers
+    included; at the box's lowest stiffness the low end matches the lengthening branch."""
     h_t = 0.3
     robot = TestbedRobot(NOMINAL, Effects(hysteresis=h_t))
+    low, high = catalog_equivalent("cable_hysteresis", {"hysteresis": h_t})
+    t6 = ParameterSpace.t6()
+    k_lo = t6.lower[t6.index("stiffnessActive")]
     try:
         length = robot.rest + 0.04
-        h = catalog_equivalent("cable_hysteresis", {"hysteresis": h_t})
         for rate in (-0.5, -0.2, 0.2, 0.5):                # m/s, far from the catalog's smoothing (0.01 m/s)
             robot.last_length = length - rate * robot.dt
             testbed = robot.cable_forces(length)
-            catalog = [cable_tension(0.04, rate, (1 - h_t) * robot.k, robot.c, 0.0, h) for _ in testbed]
+            catalog = [cable_tension(0.04, rate, (1 - h_t) * robot.k, robot.c, 0.0, high) for _ in testbed]
             np.testing.assert_allclose(testbed, catalog, rtol=1e-9)
+            if rate > 0:
+                np.testing.assert_allclose(testbed, cable_tension(0.04, rate, k_lo, robot.c, 0.0, low), rtol=1e-9)
     finally:
         robot.close()
 
