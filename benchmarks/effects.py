@@ -40,6 +40,9 @@ models it (TESTBED_TRUTH) is; rows go to benchmarks/results/effects-testbed.json
     .venv/bin/python benchmarks/effects.py --source testbed --mismatch --flops-version 2 --seeds 1 \
         --out benchmarks/results/effects-testbed-mismatch-flops2.jsonl           # flops new to every seed
 
+``--source mujoco`` runs it on the same robots and flops in MuJoCo (testbed.mujoco_robot, the third
+engine; rows record ``engine``).
+
 ``--mismatch`` runs diagnose's mismatch stage (criticism.mismatch, diagnose's default; off here
 unless asked, so that rows compare with the tables measured before the stage) before the first identification,
 so effects are searched on the model it augments; rows record the components it kept and its
@@ -76,6 +79,8 @@ TESTBED_TRUTH: dict[str, tuple[str, ...]] = {
     "ground_viscosity": ("ground_viscosity",), "slope+delay": ("ground_slope", "actuator_delay")}
 #: the testbed's effect field behind each catalog effect of a testbed mix (to switch it off)
 TESTBED_FIELDS = {"ground_slope": ("slope",), "actuator_delay": ("actuator_delay",)}
+#: --source of a foreign robot -> its engine (testbed.datasets.ENGINES)
+FOREIGN = {"testbed": "bullet", "mujoco": "mujoco"}
 
 
 def scenario_effects(name: str) -> list:
@@ -125,22 +130,23 @@ def larger_effect(name: str, data: list, truth: dict) -> str:
     return max(costs, key=costs.get)
 
 
-def testbed_data(name: str, seed: int, flops_version: int = 1) -> tuple[list, list[str], dict]:
-    """Testbed data set ``name`` at ``seed`` (0.2 mm noise; its flops' version, testbed.datasets): two
-    flops and the held-out flop, the catalog effects that model its hidden ones (of a mix, the larger
-    first) and their true values."""
+def testbed_data(name: str, seed: int, flops_version: int = 1, engine: str = "bullet") -> tuple[list, list[str], dict]:
+    """Testbed data set ``name`` at ``seed`` (0.2 mm noise; its flops' version and engine, testbed.datasets):
+    two flops and the held-out flop, the catalog effects that model its hidden ones (of a mix, the
+    larger first) and their true values."""
     from testbed.datasets import cached_dataset
-    files = cached_dataset(name, seed, noise=0.0002, version=flops_version)
+    files = cached_dataset(name, seed, noise=0.0002, version=flops_version, engine=engine)
     truth = json.loads((files["flop_0"].parent / "truth.json").read_text())
     data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
     names = list(TESTBED_TRUTH[name])
     if len(names) > 1:
-        larger = testbed_larger(name, seed, data[2], names, flops_version)
+        larger = testbed_larger(name, seed, data[2], names, flops_version, engine)
         names = [larger] + [n for n in names if n != larger]
     return data, names, truth["effects"]
 
 
-def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flops_version: int = 1) -> str:
+def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flops_version: int = 1,
+                   engine: str = "bullet") -> str:
     """Of a testbed mix, the catalog effect whose hidden counterpart, switched off in the testbed,
     moves the noise-free held-out flop furthest from the data (RMS over nodes and samples)."""
     import tempfile
@@ -154,7 +160,8 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flo
     for effect in names:
         off = replace(effects, **{f: 0.0 for f in TESTBED_FIELDS[effect]})
         with tempfile.TemporaryDirectory() as tmp:
-            make_dataset(name, seed, tmp, effects=off, obs=Observation(noise=0.0), version=flops_version)
+            make_dataset(name, seed, tmp, effects=off, obs=Observation(noise=0.0), version=flops_version,
+                         engine=engine)
             without = load_trajectory(Path(tmp) / "heldout_0.nc")["nodes"].values
         costs[effect] = float(np.sqrt(np.nanmean((without - observed) ** 2)))
     return max(costs, key=costs.get)
@@ -168,12 +175,12 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
     run = (f"{source}-{name}-seed{seed}-{held_out}-b{budget}-v{flops_version}{'-mismatch' if mismatch else ''}"
            f"{'-contact' if read_contact else ''}")
     folder = None if journals is None else journals / run
-    if source == "testbed":
-        data, truth_names, true_values = testbed_data(name, seed, flops_version)
+    if source in FOREIGN:
+        data, truth_names, true_values = testbed_data(name, seed, flops_version, FOREIGN[source])
         row = diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
                            passes=max(1, len(truth_names)), read_contact=read_contact, journal_dir=folder)
-        return {**row, "flops_version": flops_version}
+        return {**row, "flops_version": flops_version, **({"engine": "mujoco"} if source == "mujoco" else {})}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
@@ -221,9 +228,9 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
 
 
 def _key(row: dict) -> tuple:
-    """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact read)."""
+    """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact read, engine)."""
     return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"), row.get("flops_version", 1),
-            row.get("read_contact", False))
+            row.get("read_contact", False), row.get("engine", "bullet"))
 
 
 def latest_rows(rows: list[dict]) -> list[dict]:
@@ -243,8 +250,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--held-out", choices=sorted(HELD_OUT), default="actuation",
                     help="the held-out flop: another actuation (default) or only another heading")
-    ap.add_argument("--source", choices=["own", "testbed"], default="own",
-                    help="data from this project's model (default) or from the foreign testbed (Bullet)")
+    ap.add_argument("--source", choices=["own", *FOREIGN], default="own",
+                    help="data from this project's model (default), the foreign testbed (Bullet) or the same "
+                         "robot in MuJoCo (the third engine)")
     ap.add_argument("--scenarios", nargs="*", default=None,
                     help="default: every catalog effect, none, outside, mix, actuator+contact (own); every "
                     "testbed data set (testbed)")
@@ -267,9 +275,9 @@ def main(argv: list[str] | None = None) -> int:
             print_rows(saved)
         return 0
     if args.scenarios is None:
-        args.scenarios = (list(TESTBED_TRUTH) if args.source == "testbed"
+        args.scenarios = (list(TESTBED_TRUTH) if args.source in FOREIGN
                           else [e.name for e in catalog()] + [*PLACED, "none", "outside", "mix", "actuator+contact"])
-    if args.source == "testbed":
+    if args.source in FOREIGN:
         args.held_out = "testbed"
     out = Path(args.out or f"benchmarks/results/effects-{args.held_out}{'-mismatch' if args.mismatch else ''}.jsonl")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -281,7 +289,8 @@ def main(argv: list[str] | None = None) -> int:
             and r.get("flops_version", 1) == args.flops_version and r.get("read_contact", False) == args.read_contact]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
-            if (name, seed, args.held_out, args.budget, args.flops_version, args.read_contact) in done:
+            if (name, seed, args.held_out, args.budget, args.flops_version, args.read_contact,
+                    FOREIGN.get(args.source, "bullet")) in done:
                 continue
             row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version,
                              args.read_contact, Path(args.journals) if args.journals else None), "budget": args.budget}

@@ -53,7 +53,8 @@ def catalog_equivalent(effect: str, truth: dict, row: dict | None = None) -> tup
         return float(t6.nominal[k] / t6.lower[k] - 1.0), truth["hysteresis"] / (1.0 - truth["hysteresis"])
     if effect == "air_drag" and row is not None:
         from testbed.datasets import cached_dataset
-        files = cached_dataset(row["scenario"], row["seed"], noise=0.0002, version=row.get("flops_version", 1))
+        files = cached_dataset(row["scenario"], row["seed"], noise=0.0002, version=row.get("flops_version", 1),
+                               engine=row.get("engine", "bullet"))
         cubes = quartics = 0.0
         for label in ("flop_0", "flop_1"):
             ds = load_trajectory(files[label])

@@ -27,8 +27,9 @@ targets (both ratios at most 0.5).
     .venv/bin/python benchmarks/mismatch.py --flops-version 2 --seeds 3 --first-seed 0 \
         --out benchmarks/results/mismatch-flops2.jsonl                  # flops the stage never saw
 
-``--source own`` runs the stage on the project's own engine (the scenarios of benchmarks/effects.py,
-1.5 s flops), where it should keep nothing.
+``--source mujoco`` runs it on the same robot and flops in MuJoCo (benchmarks/testbed/mujoco_robot.py),
+the third engine, which the stage was not developed on. ``--source own`` runs the stage on the
+project's own engine (the scenarios of benchmarks/effects.py, 1.5 s flops), where it should keep nothing.
 
 ``--read-contact`` runs the stage on the contact the flops read (criticism.contact: flat end caps
 join the model first, as ``diagnose --read-contact`` does); "before" is then the model with the
@@ -64,13 +65,15 @@ LABELS = ("flop_0", "flop_1", "heldout_0")
 
 
 def load(source: str, dataset: str, seed: int, noise: float, flops_version: int = 1) -> list:
-    """The two fit flops and the held-out flop: of a testbed data set (its flops' version, testbed.datasets),
-    or (``own``) of a scenario of benchmarks/effects.py simulated by the project's own engine (1.5 s flops)."""
+    """The two fit flops and the held-out flop: of a testbed data set (its flops' version, testbed.datasets;
+    ``mujoco``: the same robot and flops in the third engine), or (``own``) of a scenario of
+    benchmarks/effects.py simulated by the project's own engine (1.5 s flops)."""
     if source == "own":
         from effects import make_data
         return make_data(dataset, seed, noise=noise)[0]
     from testbed.datasets import cached_dataset
-    files = cached_dataset(dataset, seed, noise=noise, version=flops_version)
+    files = cached_dataset(dataset, seed, noise=noise, version=flops_version,
+                           engine="mujoco" if source == "mujoco" else "bullet")
     return [load_trajectory(files[label]) for label in LABELS]
 
 
@@ -156,9 +159,9 @@ def summarize(rows: list[dict]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--source", choices=["testbed", "own"], default="testbed",
-                    help="the foreign testbed (default) or the project's own engine (--dataset: a scenario of "
-                         "benchmarks/effects.py, e.g. none or actuator_delay)")
+    ap.add_argument("--source", choices=["testbed", "mujoco", "own"], default="testbed",
+                    help="the foreign testbed in Bullet (default), the same robot in MuJoCo (the third engine) or "
+                         "the project's own engine (--dataset: a scenario of benchmarks/effects.py, e.g. none)")
     ap.add_argument("--dataset", default=None, help="data set (default: nominal on the testbed, none on own)")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--first-seed", type=int, default=2, help="seeds first-seed .. first-seed + seeds - 1 (the "
@@ -189,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
         for r in saved:
             r.setdefault("floor", noise_floor(r))
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
-    args.dataset = args.dataset or ("nominal" if args.source == "testbed" else "none")
+    args.dataset = args.dataset or ("none" if args.source == "own" else "nominal")
     key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1),
             r.get("read_contact", False), tuple(r.get("base", ()))): r for r in saved}
     config = MismatchConfig()

@@ -4,6 +4,8 @@ next to how far it is from itself.
 Rows (noise-free observations, 3 s flops at 100 Hz, the three flops and the held-out flop):
 
 - ``testbed``: testbed nominal data sets (benchmarks/testbed, Bullet), seeds 0..S-1;
+- ``mujoco``: the same robot and flops in MuJoCo (testbed.mujoco_robot, the third engine), with
+  ``--engines bullet mujoco``;
 - ``dart dt/2``: DART's own nominal flops simulated with a 0.5 ms step (the model runs at 1 ms):
   what DART differs from itself by when only the integration changes.
 
@@ -14,6 +16,7 @@ the first sample and the observation) at 0.2, 0.3, 0.5 and 1.0 s after the start
 first sample, at rest [mm]. The last line gives the medians' ratios.
 
     .venv/bin/python benchmarks/testbed_floor.py --seeds 3
+    .venv/bin/python benchmarks/testbed_floor.py --seeds 3 --engines bullet mujoco
 """
 from __future__ import annotations
 
@@ -24,9 +27,10 @@ import xarray as xr
 from tqdm import tqdm
 
 from physics import FlopController, ModelOptions, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
-from testbed.datasets import cached_dataset
+from testbed.datasets import ENGINES, cached_dataset
 
 TIMES = (0.2, 0.3, 0.5, 1.0)
+LABEL = {"bullet": "testbed", "mujoco": "mujoco"}
 
 
 def floor_row(ds: xr.Dataset, theta: np.ndarray) -> tuple[float, ...]:
@@ -44,12 +48,16 @@ def floor_row(ds: xr.Dataset, theta: np.ndarray) -> tuple[float, ...]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=3, help="testbed nominal data sets (default 3)")
+    parser.add_argument("--engines", nargs="+", choices=ENGINES, default=["bullet"],
+                        help="the foreign engines to compare (default: bullet, the testbed)")
     args = parser.parse_args()
     nominal = ParameterSpace.t6().nominal
-    rows: dict[str, list[tuple[float, ...]]] = {"testbed": [], "dart dt/2": []}
-    for seed in tqdm(range(args.seeds), desc="testbed"):
-        for path in cached_dataset("nominal", seed, noise=0.0).values():
-            rows["testbed"].append(floor_row(load_trajectory(path), nominal))
+    rows: dict[str, list[tuple[float, ...]]] = {LABEL[e]: [] for e in args.engines}
+    rows["dart dt/2"] = []
+    for engine in args.engines:
+        for seed in tqdm(range(args.seeds), desc=LABEL[engine]):
+            for path in cached_dataset("nominal", seed, noise=0.0, engine=engine).values():
+                rows[LABEL[engine]].append(floor_row(load_trajectory(path), nominal))
     for heading in tqdm((0.3, 2.4, 4.5, 1.35), desc="dart dt/2"):
         ds = simulate(controller=FlopController(heading=heading), duration=3.0, options=ModelOptions(dt=5e-4),
                       record_velocities=False)
@@ -61,8 +69,9 @@ def main() -> None:
         medians[name] = np.median(arr, axis=0)
         cells = " ".join(f"{m:8.3f} [{lo:.3g}-{hi:.3g}]" for m, lo, hi in zip(medians[name], arr.min(0), arr.max(0)))
         print(f"{name:10s} {len(arr):3d} {cells}   (median [min-max])")
-    ratio = medians["testbed"] / medians["dart dt/2"]
-    print("ratio testbed / dart dt/2 (medians): " + ", ".join(f"{r:.0f}x" for r in ratio))
+    for engine in args.engines:
+        ratio = medians[LABEL[engine]] / medians["dart dt/2"]
+        print(f"ratio {LABEL[engine]} / dart dt/2 (medians): " + ", ".join(f"{r:.0f}x" for r in ratio))
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.robot import TestbedRobot
+from testbed.cable_robot import CableRobot
 
 __all__ = ["Flop", "FlopPlanner"]
 
@@ -63,7 +63,7 @@ class FlopPlanner:
         self.shorten: tuple[int, ...] = ()
         self.lengthen: tuple[int, ...] = ()
 
-    def plan(self, robot: TestbedRobot) -> None:
+    def plan(self, robot: CableRobot) -> None:
         """Pick the cables from the robot's present state (the robot is left as it was)."""
         f = self.flop
         self.hold = robot.rest.copy()

@@ -1,5 +1,10 @@
 """Named data sets of the testbed robot: each one robot, three flops and a held-out flop.
 
+A data set's robot moves in one of two engines (``ENGINES``): ``bullet`` (the testbed, the
+default) or ``mujoco`` (a third engine, held back; docs/third-engine.md). The robot, the flops'
+plans (headings, actuation) and the noise are the same in both; the rigid bodies, contact and
+integration differ, and so may the cables the controller picks by trial on the robot.
+
 A data set is one robot (θ and effects) settled for 3 s on a face; from that same rest state it
 makes three flops toward headings 120° apart (rotated by an angle drawn from the seed) and one
 held-out flop with another actuation, heading between two of the others. Files: ``flop_0.nc``,
@@ -24,17 +29,19 @@ from typing import Callable
 
 import numpy as np
 
+from testbed.cable_robot import CableRobot
 from testbed.controller import Flop
 from testbed.effects import Effects
 from testbed.params import NOMINAL, draw_theta
 from testbed.record import Observation, record_flop, to_dataset
 from testbed.robot import TestbedRobot
 
-__all__ = ["DATASETS", "FLOP_VERSIONS", "Robot", "robot_for", "flops_for", "make_dataset", "cached_dataset",
-           "SETTLE_S"]
+__all__ = ["DATASETS", "ENGINES", "FLOP_VERSIONS", "Robot", "robot_for", "flops_for", "make_dataset",
+           "cached_dataset", "build_robot", "SETTLE_S"]
 
 SETTLE_S = 3.0
 FLOP_VERSIONS = (1, 2)
+ENGINES = ("bullet", "mujoco")
 
 
 @dataclass(frozen=True)
@@ -105,18 +112,31 @@ def flops_for(rng: np.random.Generator, version: int = 1) -> dict[str, Flop]:
     return flops
 
 
+def build_robot(robot: Robot, engine: str = "bullet", *, ground_rolling: float = 1.0) -> CableRobot:
+    """The robot in ``engine`` (one of ``ENGINES``); ``ground_rolling``: Bullet's ground rolling
+    friction (TestbedRobot; ablations only)."""
+    if engine == "bullet":
+        return TestbedRobot(robot.theta, robot.effects, ground_rolling=ground_rolling)
+    if engine == "mujoco":
+        from testbed.mujoco_robot import MujocoRobot
+        if ground_rolling != 1.0:
+            raise ValueError("ground_rolling is Bullet's; the MuJoCo robot has no rolling friction.")
+        return MujocoRobot(robot.theta, robot.effects)
+    raise ValueError(f"unknown engine {engine!r}; choose from {ENGINES}.")
+
+
 def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = Observation(),
                  duration: float = 3.0, effects: Effects | None = None, version: int = 1,
-                 ground_rolling: float = 1.0) -> list[Path]:
+                 ground_rolling: float = 1.0, engine: str = "bullet") -> list[Path]:
     """Write data set ``name`` for ``seed`` into folder ``out``; returns the trajectory files.
     ``effects`` replaces the data set's own (for combinations); ``version``: of the flops;
-    ``ground_rolling``: the ground's rolling friction (TestbedRobot; ablations only)."""
+    ``ground_rolling``: the ground's rolling friction (Bullet; ablations only); ``engine``: of ``ENGINES``."""
     robot_def, rng = robot_for(name, seed)
     if effects is not None:
         robot_def = replace(robot_def, effects=effects)
+    robot = build_robot(robot_def, engine, ground_rolling=ground_rolling)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    robot = TestbedRobot(robot_def.theta, robot_def.effects, ground_rolling=ground_rolling)
     try:
         for _ in range(int(round(SETTLE_S / robot.dt))):
             robot.step(robot.rest)
@@ -130,7 +150,7 @@ def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = 
             paths.append(out / f"{label}.nc")
             ds.to_netcdf(paths[-1])
         truth = {"dataset": name, "seed": seed, "theta": robot.theta, "effects": robot.effects.active(),
-                 "flops_version": version}
+                 "flops_version": version, "engine": engine}
         (out / "truth.json").write_text(json.dumps(truth, indent=1))
         return paths
     finally:
@@ -138,12 +158,14 @@ def make_dataset(name: str, seed: int, out: "str | Path", *, obs: Observation = 
 
 
 def cached_dataset(name: str, seed: int, *, noise: float = 1e-3, missing: float = 0.0,
-                   root: "str | Path" = Path(".cache") / "testbed", version: int = 1) -> dict[str, Path]:
+                   root: "str | Path" = Path(".cache") / "testbed", version: int = 1,
+                   engine: str = "bullet") -> dict[str, Path]:
     """The files of data set ``name`` at ``seed`` (label -> path), made on first use under ``root``
-    (a folder per name, seed, observation and flops' version, ignored by git)."""
+    (a folder per name, seed, observation, flops' version and engine, ignored by git)."""
     folder = Path(root) / (f"{name}-s{seed}-n{noise:g}" + (f"-m{missing:g}" if missing else "")
-                           + (f"-v{version}" if version != 1 else ""))
+                           + (f"-v{version}" if version != 1 else "") + (f"-{engine}" if engine != "bullet" else ""))
     labels = ("flop_0", "flop_1", "flop_2", "heldout_0")
     if not all((folder / f"{label}.nc").exists() for label in labels):
-        make_dataset(name, seed, folder, obs=Observation(noise=noise, missing=missing), version=version)
+        make_dataset(name, seed, folder, obs=Observation(noise=noise, missing=missing), version=version,
+                     engine=engine)
     return {label: folder / f"{label}.nc" for label in labels}

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from testbed.cable_robot import CableRobot
 from testbed.controller import Flop, FlopPlanner
 from testbed.params import CABLE_ENDS, cable_names
-from testbed.robot import TestbedRobot
 
 __all__ = ["Observation", "record_flop", "to_dataset"]
 
@@ -45,7 +45,7 @@ class Recording:
     tension: np.ndarray
 
 
-def record_flop(robot: TestbedRobot, flop: Flop, *, duration: float = 3.0, sample_rate: float = 100.0) -> Recording:
+def record_flop(robot: CableRobot, flop: Flop, *, duration: float = 3.0, sample_rate: float = 100.0) -> Recording:
     """Run one flop from the robot's present state; commands are held between samples."""
     substeps = int(round(1.0 / (sample_rate * robot.dt)))
     n = int(round(duration * sample_rate)) + 1
@@ -65,7 +65,7 @@ def record_flop(robot: TestbedRobot, flop: Flop, *, duration: float = 3.0, sampl
     return Recording(np.arange(n) / sample_rate, nodes, out["controls"], out["rest"], out["tension"])
 
 
-def to_dataset(rec: Recording, robot: TestbedRobot, obs: Observation, rng: np.random.Generator, *,
+def to_dataset(rec: Recording, robot: CableRobot, obs: Observation, rng: np.random.Generator, *,
                attrs: dict[str, object]) -> xr.Dataset:
     """The recording as a trajectory Dataset, observed through ``obs`` and the robot's effects."""
     nodes = rec.nodes + np.asarray(robot.effects.marker_offset)
@@ -84,7 +84,7 @@ def to_dataset(rec: Recording, robot: TestbedRobot, obs: Observation, rng: np.ra
         coords={"time": ("time", rec.time, {"units": "s"}), "node": np.arange(12), "axis": ["x", "y", "z"],
                 "cable": cable, "end_a": ("cable", CABLE_ENDS[:, 0]), "end_b": ("cable", CABLE_ENDS[:, 1])},
         attrs={"format": "tensegrid-trajectory-1", "robot": "SUPERball T6", "length_reference": "encoder",
-               "source": "testbed: SUPERball in Bullet (benchmarks/testbed)", "noise_m": obs.noise,
+               "source": f"testbed: SUPERball in {robot.engine_name} (benchmarks/testbed)", "noise_m": obs.noise,
                "testbed_theta": json.dumps(robot.theta), "testbed_effects": json.dumps(robot.effects.active()),
                **attrs},
     )

@@ -1,73 +1,38 @@
-"""The testbed SUPERball in Bullet: six compound rods, a ground plane, 24 cables applied as forces.
+"""The testbed SUPERball in Bullet: six compound rods on Bullet's ground plane.
 
-Modelling choices (the testbed's own; docs/testbed.md lists them all):
+The robot's own side (cables, actuators, payload, effects) is :class:`testbed.cable_robot.CableRobot`;
+Bullet's side, the testbed's modelling choices (docs/testbed.md lists them all):
 
-- each rod is one Bullet body made of three coaxial cylinder shapes (end, middle, end), with the
-  mass and inertia of those cylinders (ends: ``density``, ``radius``; middle: ``density_mp``,
-  ``radius_mp``, ``rod_length_mp``); the end cylinders are the contact shapes (flat ends, no
-  spheres), so a node (the centre of a rod's end face) rests ``radius`` above a level floor;
-- cable anchors sit on the rim of the end face, offset by ``radius`` from the node toward the
-  other end of the cable (perpendicular to the rod), fixed to the rod: they resist a rod's spin
-  about its own axis, so no extra spin damper is needed;
-- a cable pulls with F = k (L − L0) + c dL/dt only while L > L0 (it never pushes), with dL/dt a
-  backward difference of L over one step and the damping term clipped to ±k (L − L0);
-- the actuator moves each rest length L0 toward its target by at most targetVelocity·dt per step;
-  a target that would make the tension exceed maxTens is lengthened to L − maxTens / k first;
+- each rod is one Bullet body made of three coaxial cylinder shapes (end, middle, end); the end
+  cylinders are the contact shapes (flat ends, no spheres), so a node (the centre of a rod's end
+  face) rests ``radius`` above a level floor;
+- the cables are forces applied at the centres of mass each step; anchors on the rims resist a
+  rod's spin about its own axis, so no extra spin damper is needed;
 - Bullet's ground plane, lateral friction 0.5 (rod 0.5 × ground 1.0), rolling friction 0.01 on
   the rods and 1.0 on the ground (``ground_rolling``): Bullet combines a pair's rolling friction
   as r_a f_b + r_b f_a, so a cap on the ground has 0.01 × 1.0 + 1.0 × 0.5 = 0.51 [m]; restitution
   0, time step 1 ms, gravity −9.81 along world z.
-
-Rest lengths at build are L0_build = L_build − pretension / k with L_build the anchor-to-anchor
-distance. Encoders count spool travel since assembly; the data format (docs/data-format.md) says
-a reading of L0_zero = |n_a − n_b| − pretension / k of the nominal robot (node to node, 0.878 m)
-means "as assembled", so a reading is L0_zero + (L0 − L0_build(θ)) and a command c asks for the
-true rest length c + (L0_build(θ) − L0_zero).
 """
 from __future__ import annotations
-
-from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 import pybullet as pb
 
+from testbed.cable_robot import (
+    CableRobot,
+    RodBody,
+    Snapshot,
+    TestbedDiverged,
+    build_pose,
+    encoder_zero,
+    rod_inertia,
+    rotation_between,
+)
 from testbed.effects import Effects
-from testbed.params import CABLE_ENDS, NOMINAL, ROD_ENDS, closed_faces, node_layout
 
-__all__ = ["TestbedRobot", "TestbedDiverged", "Snapshot", "encoder_zero"]
+__all__ = ["TestbedRobot", "TestbedDiverged", "Snapshot", "encoder_zero", "build_pose", "rod_inertia"]
 
-_FRICTION, _ROLLING, _DT, _GRAVITY = 0.5, 0.01, 1e-3, 9.81
-_NEAR_GROUND = 0.01
-_MAX_SPEED = 30.0
-
-
-class TestbedDiverged(RuntimeError):
-    """A node moved faster than 30 m/s or became NaN: the testbed simulation blew up."""
-
-
-@dataclass(frozen=True)
-class Snapshot:
-    """Bullet state id plus the cable side of the state (rest lengths, last lengths, pending commands)."""
-
-    bullet: int
-    rest: np.ndarray
-    last_length: np.ndarray
-    pending: tuple
-    time: float
-
-
-def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation matrix (3 x 3) turning unit vector a onto unit vector b (Rodrigues)."""
-    v, c = np.cross(a, b), float(a @ b)
-    if np.linalg.norm(v) < 1e-12:
-        if c > 0:
-            return np.eye(3)
-        p = np.eye(3)[np.argmin(np.abs(a))]
-        axis = np.cross(a, p) / np.linalg.norm(np.cross(a, p))
-        return 2 * np.outer(axis, axis) - np.eye(3)
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1 + c)
+_FRICTION, _ROLLING, _GRAVITY = 0.5, 0.01, 9.81
 
 
 def _quaternion(rot: np.ndarray) -> list[float]:
@@ -79,256 +44,80 @@ def _quaternion(rot: np.ndarray) -> list[float]:
     return [x, y, z, w]
 
 
-def build_pose(theta: dict[str, float], effects: Effects, *, face: int = 0, drop: float = 0.02) -> np.ndarray:
-    """Node positions (12 x 3) at build: closed face ``face`` toward the (possibly tilted) ground,
-    every node at least ``radius + drop`` above it, centred over the world origin."""
-    nodes = node_layout(theta["rod_length"], theta["rod_space"])
-    tri = list(closed_faces()[face])
-    outward = nodes[tri].mean(axis=0)
-    normal = effects.ground_normal()
-    nodes = nodes @ _rotation_between(outward / np.linalg.norm(outward), -normal).T
-    height = nodes @ normal
-    return nodes + normal * (theta["radius"] + drop - height.min()) - np.r_[nodes[:, :2].mean(axis=0), 0.0]
-
-
-def rod_inertia(theta: dict[str, float], effects: Effects, rod: int) -> tuple[float, float, float, float]:
-    """(mass [kg], centre of mass along the axis from the rod's centre [m], transverse and axial
-    inertia about the centre of mass [kg m²]) of three coaxial cylinders plus any payload."""
-    l_mp = theta["rod_length_mp"]
-    l_end = 0.5 * (theta["rod_length"] - l_mp)
-    parts = [(theta["density"] * np.pi * theta["radius"] ** 2 * l_end, theta["radius"], l_end, z)
-             for z in (-(l_mp + l_end) / 2, (l_mp + l_end) / 2)]
-    parts.append((theta["density_mp"] * np.pi * theta["radius_mp"] ** 2 * l_mp, theta["radius_mp"], l_mp, 0.0))
-    if effects.extra_mass > 0 and rod == effects.extra_mass_rod:
-        parts.append((effects.extra_mass, 0.0, 0.0, effects.extra_mass_at))
-    mass = sum(m for m, *_ in parts)
-    zc = sum(m * z for m, _, _, z in parts) / mass
-    transverse = sum(m * (3 * r ** 2 + l ** 2) / 12 + m * (z - zc) ** 2 for m, r, l, z in parts)
-    axial = sum(0.5 * m * r ** 2 for m, r, _, _ in parts)
-    return mass, zc, transverse, axial
-
-
-def encoder_zero() -> np.ndarray:
-    """The reading (24,) [m] the data format gives a rest length as assembled: node-to-node cable
-    length of the nominal robot minus pretension / k (0.878 m for every cable)."""
-    nodes = node_layout(NOMINAL["rod_length"], NOMINAL["rod_space"])
-    length = np.linalg.norm(nodes[CABLE_ENDS[:, 1]] - nodes[CABLE_ENDS[:, 0]], axis=1)
-    return length - NOMINAL["pretension"] / NOMINAL["stiffnessActive"]
-
-
-class TestbedRobot:
-    """The SUPERball at parameters ``theta`` (dict of the 15 names) with ``effects``, in its own
-    Bullet client. ``step(targets)`` advances 1 ms with 24 true target rest lengths [m]."""
+class TestbedRobot(CableRobot):
+    """The SUPERball at parameters ``theta`` with ``effects``, in its own Bullet client;
+    ``ground_rolling``: the ground's rolling friction (ablations only)."""
 
     __test__ = False     # not a pytest class, despite its name
+    engine, engine_name = "bullet", "Bullet"
 
     def __init__(self, theta: dict[str, float], effects: Effects = Effects(), *, face: int = 0,
                  ground_rolling: float = 1.0) -> None:
-        self.theta, self.effects, self.dt, self.ground_rolling = dict(theta), effects, _DT, float(ground_rolling)
-        self.k, self.c = theta["stiffnessActive"], theta["damping"]
+        self.ground_rolling = float(ground_rolling)
+        super().__init__(theta, effects, face=face)
+
+    def _make_world(self, rods: list[RodBody]) -> None:
         self.client = pb.connect(pb.DIRECT)
         pb.setGravity(0, 0, -_GRAVITY, physicsClientId=self.client)
-        pb.setTimeStep(_DT, physicsClientId=self.client)
+        pb.setTimeStep(self.dt, physicsClientId=self.client)
         self._ground()
-        nodes = build_pose(theta, effects, face=face)
-        self._rods(nodes)
-        self.rest = self.build_lengths(theta) - theta["pretension"] / self.k
-        if np.any(self.rest <= 0):
-            raise ValueError("pretension / stiffnessActive exceeds the cable length: rest lengths would be <= 0.")
-        self.encoder_offset = self.rest - encoder_zero()
-        self.last_length = self._cable_geometry(self._poses())[0]
-        self.pending: deque = deque()
-        self.time = 0.0
+        self._rods(rods)
 
-    @staticmethod
-    def build_lengths(theta: dict[str, float]) -> np.ndarray:
-        """Anchor-to-anchor cable lengths (24,) [m] of the build pose at ``theta``."""
-        nodes = node_layout(theta["rod_length"], theta["rod_space"])
-        anchors = TestbedRobot._anchor_points(nodes, theta["radius"])
-        return np.linalg.norm(anchors[:, 1] - anchors[:, 0], axis=1)
-
-    @staticmethod
-    def _anchor_points(nodes: np.ndarray, radius: float) -> np.ndarray:
-        """World anchors (24 x 2 x 3): each cable end on its node's rim, toward the other end."""
-        out = np.empty((len(CABLE_ENDS), 2, 3))
-        for j, ends in enumerate(CABLE_ENDS):
-            for side, (me, other) in enumerate((ends, ends[::-1])):
-                rod = ROD_ENDS[me // 2]
-                axis = nodes[rod[1]] - nodes[rod[0]]
-                axis /= np.linalg.norm(axis)
-                d = nodes[other] - nodes[me]
-                perp = d - (d @ axis) * axis
-                out[j, side] = nodes[me] + radius * perp / np.linalg.norm(perp)
-        return out
-
-    # ---------------------------------------------------------------- building
     def _ground(self) -> None:
         shape = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=self.client)
-        rot = _rotation_between(np.array([0.0, 0.0, 1.0]), self.effects.ground_normal())
+        rot = rotation_between(np.array([0.0, 0.0, 1.0]), self.effects.ground_normal())
         self.ground = pb.createMultiBody(0, shape, baseOrientation=_quaternion(rot), physicsClientId=self.client)
         pb.changeDynamics(self.ground, -1, lateralFriction=1.0, restitution=0.0, rollingFriction=self.ground_rolling,
                           physicsClientId=self.client)
 
-    def _rods(self, nodes: np.ndarray) -> None:
-        """Create the six bodies at the build pose; store anchors and node offsets in body frames."""
+    def _rods(self, rods: list[RodBody]) -> None:
+        """Create the six bodies: three coaxial cylinders each, inertia given."""
         th, cid = self.theta, self.client
         l_mp = th["rod_length_mp"]
         l_end = 0.5 * (th["rod_length"] - l_mp)
         z_end = 0.5 * (l_mp + l_end)
-        anchors = self._anchor_points(nodes, th["radius"])
-        self.bodies, self.com_offset, self.masses = [], np.zeros(6), np.zeros(6)
-        self.anchor_local = np.empty((len(CABLE_ENDS), 2, 3))
-        self.half = 0.5 * th["rod_length"]
-        for i, (a, b) in enumerate(ROD_ENDS):
-            centre = 0.5 * (nodes[a] + nodes[b])
-            rot = _rotation_between(np.array([0.0, 0.0, 1.0]), (nodes[b] - nodes[a]) / np.linalg.norm(nodes[b] - nodes[a]))
-            mass, zc, transverse, axial = rod_inertia(th, self.effects, i)
+        self.bodies = []
+        for rod in rods:
             shape = pb.createCollisionShapeArray(
                 [pb.GEOM_CYLINDER] * 3, radii=[th["radius"], th["radius_mp"], th["radius"]],
                 lengths=[l_end, l_mp, l_end], collisionFramePositions=[[0, 0, -z_end], [0, 0, 0], [0, 0, z_end]],
                 physicsClientId=cid)
-            body = pb.createMultiBody(mass, shape, -1, centre.tolist(), _quaternion(rot),
-                                      baseInertialFramePosition=[0, 0, zc], physicsClientId=cid)
-            pb.changeDynamics(body, -1, localInertiaDiagonal=[transverse, transverse, axial],
+            body = pb.createMultiBody(rod.mass, shape, -1, rod.centre.tolist(), _quaternion(rod.rotation),
+                                      baseInertialFramePosition=[0, 0, rod.com_along], physicsClientId=cid)
+            pb.changeDynamics(body, -1, localInertiaDiagonal=[rod.transverse, rod.transverse, rod.axial],
                               lateralFriction=_FRICTION, restitution=0.0, rollingFriction=_ROLLING,
                               linearDamping=0.0, angularDamping=0.0, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
                               physicsClientId=cid)
             self.bodies.append(body)
-            self.com_offset[i], self.masses[i] = zc, mass
-            for j, ends in enumerate(CABLE_ENDS):
-                for side in (0, 1):
-                    if ends[side] // 2 == i:
-                        self.anchor_local[j, side] = rot.T @ (anchors[j, side] - centre)
 
-    # ---------------------------------------------------------------- state
-    def _poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(rotations 6 x 3 x 3, rod centres 6 x 3, centres of mass 6 x 3) in the world frame."""
+    def _body_states(self) -> tuple[np.ndarray, np.ndarray]:
         rot, com = np.empty((6, 3, 3)), np.empty((6, 3))
         for i, body in enumerate(self.bodies):
             pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=self.client)
             rot[i] = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
             com[i] = pos
-        return rot, com - rot[:, :, 2] * self.com_offset[:, None], com
+        return rot, com
 
-    def _cable_geometry(self, poses) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(lengths (24,), unit vectors a -> b (24 x 3), anchors (24 x 2 x 3)) of the cables."""
-        rot, centre, _ = poses
-        rods = CABLE_ENDS // 2
-        anchors = np.einsum("jsab,jsb->jsa", rot[rods], self.anchor_local) + centre[rods]
-        d = anchors[:, 1] - anchors[:, 0]
-        length = np.linalg.norm(d, axis=1)
-        return length, d / length[:, None], anchors
-
-    def nodes(self, poses=None) -> np.ndarray:
-        """Rod endpoints (12 x 3) [m] in the world frame: rod centre ∓ half a rod along its axis
-        (``poses``: those of :meth:`_poses` if already read this step)."""
-        rot, centre, _ = poses or self._poses()
-        axis = rot[:, :, 2]
-        return np.stack([centre - self.half * axis, centre + self.half * axis], axis=1).reshape(12, 3)
-
-    def node_velocities(self, poses=None) -> np.ndarray:
-        """Velocities (12 x 3) [m/s] of the rod endpoints."""
-        poses = poses or self._poses()
-        nodes = self.nodes(poses).reshape(6, 2, 3)
-        com = poses[2]
-        out = np.empty((6, 2, 3))
+    def _body_velocities(self) -> tuple[np.ndarray, np.ndarray]:
+        v, w = np.empty((6, 3)), np.empty((6, 3))
         for i, body in enumerate(self.bodies):
-            v, w = pb.getBaseVelocity(body, physicsClientId=self.client)
-            out[i] = np.asarray(v) + np.cross(np.asarray(w), nodes[i] - com[i])
-        return out.reshape(12, 3)
+            v[i], w[i] = pb.getBaseVelocity(body, physicsClientId=self.client)
+        return v, w
 
-    def tensions(self, length: np.ndarray | None = None) -> np.ndarray:
-        """Spring tensions max(0, k (L − L0)) (24,) [N]."""
-        length = self._cable_geometry(self._poses())[0] if length is None else length
-        return np.maximum(0.0, self.k * (length - self.rest))
-
-    def snapshot(self) -> Snapshot:
-        """Everything needed to come back to this instant (for the controller's trials)."""
-        state = pb.saveState(physicsClientId=self.client)
-        return Snapshot(state, self.rest.copy(), self.last_length.copy(), tuple(self.pending), self.time)
-
-    def restore(self, snap: Snapshot) -> None:
-        pb.restoreState(stateId=snap.bullet, physicsClientId=self.client)
-        self.rest, self.last_length = snap.rest.copy(), snap.last_length.copy()
-        self.pending, self.time = deque(snap.pending), snap.time
-
-    def forget(self, snap: Snapshot) -> None:
-        pb.removeState(snap.bullet, physicsClientId=self.client)
-
-    def close(self) -> None:
-        pb.disconnect(physicsClientId=self.client)
-
-    # ---------------------------------------------------------------- dynamics
-    def _command(self, targets: np.ndarray) -> np.ndarray:
-        """The targets the actuators act on now: those sent ``actuator_delay`` ago."""
-        delay = int(round(self.effects.actuator_delay / self.dt))
-        if delay == 0:
-            return targets
-        self.pending.append(targets)
-        while len(self.pending) > delay + 1:
-            self.pending.popleft()
-        return self.pending[0]
-
-    def _actuate(self, targets: np.ndarray, length: np.ndarray) -> None:
-        """Basic actuator: target lengthened to keep tension <= maxTens, then L0 moves toward it
-        by at most targetVelocity·dt; L0 >= 1 cm."""
-        target = np.maximum(targets, length - self.theta["maxTens"] / self.k)
-        step = self.theta["targetVelocity"] * self.dt
-        self.rest = np.maximum(self.rest + np.clip(target - self.rest, -step, step), 0.01)
-
-    def cable_forces(self, length: np.ndarray) -> np.ndarray:
-        """Cable forces (24,) [N] >= 0: spring (softer while shortening with hysteresis) plus a
-        damper clipped to the spring force; zero for a slack cable."""
-        stretch = length - self.rest
-        rate = (length - self.last_length) / self.dt
-        spring = self.k * stretch * np.where(rate < 0, 1.0 - self.effects.hysteresis, 1.0)
-        damper = np.clip(self.c * rate, -np.abs(spring), np.abs(spring))
-        return np.where(stretch > 0, spring + damper, 0.0)
-
-    def step(self, targets: np.ndarray) -> None:
-        """One 1 ms step with 24 true target rest lengths [m]."""
-        poses = self._poses()
-        length, unit, anchors = self._cable_geometry(poses)
-        self._actuate(self._command(np.asarray(targets, float)), length)
-        force = self.cable_forces(length)[:, None] * unit
-        self.last_length = length
-        per_anchor = np.stack([force, -force], axis=1)            # anchor a pulled toward b
-        rods = CABLE_ENDS // 2
-        com = poses[2]
-        net, torque = np.zeros((6, 3)), np.zeros((6, 3))
-        np.add.at(net, rods, per_anchor)
-        np.add.at(torque, rods, np.cross(anchors - com[rods], per_anchor))
-        self._node_forces(poses, net, torque)
+    def _advance(self, net: np.ndarray, torque: np.ndarray, com: np.ndarray) -> None:
         for i, body in enumerate(self.bodies):
             pb.applyExternalForce(body, -1, net[i].tolist(), com[i].tolist(), pb.WORLD_FRAME, physicsClientId=self.client)
             pb.applyExternalTorque(body, -1, torque[i].tolist(), pb.WORLD_FRAME, physicsClientId=self.client)
         pb.stepSimulation(physicsClientId=self.client)
-        self.time += self.dt
 
-    def _node_forces(self, poses, net: np.ndarray, torque: np.ndarray) -> None:
-        """Add air drag and ground viscosity, forces at the rod ends, to the rods' net wrenches."""
-        eff = self.effects
-        if eff.drag == 0 and eff.ground_viscosity == 0:
-            return
-        com = poses[2]
-        nodes, vel = self.nodes(poses), self.node_velocities(poses)
-        force = -eff.drag * vel
-        if eff.ground_viscosity > 0:
-            n = eff.ground_normal()
-            near = (nodes @ n) < self.theta["radius"] + _NEAR_GROUND
-            tangential = vel - np.outer(vel @ n, n)
-            force -= eff.ground_viscosity * tangential * near[:, None]
-        rods = np.arange(12) // 2
-        np.add.at(net, rods, force)
-        np.add.at(torque, rods, np.cross(nodes - com[rods], force))
+    def _save(self) -> int:
+        return pb.saveState(physicsClientId=self.client)
 
-    def check(self) -> None:
-        """Raise :class:`TestbedDiverged` if a node is NaN or faster than 30 m/s."""
-        v = self.node_velocities()
-        if not np.all(np.isfinite(v)) or np.abs(v).max() > _MAX_SPEED:
-            raise TestbedDiverged(f"testbed diverged at t = {self.time:.3f} s (node speed {np.abs(v).max():.3g} m/s).")
+    def _load(self, state: object) -> None:
+        pb.restoreState(stateId=state, physicsClientId=self.client)
 
-    def com(self) -> np.ndarray:
-        """Centre of mass of the robot (3,) [m]."""
-        _, _, com = self._poses()
-        return self.masses @ com / self.masses.sum()
+    def forget(self, snap: Snapshot) -> None:
+        pb.removeState(snap.engine, physicsClientId=self.client)
+
+    def close(self) -> None:
+        pb.disconnect(physicsClientId=self.client)

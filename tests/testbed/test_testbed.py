@@ -1,4 +1,5 @@
-"""The foreign testbed (benchmarks/testbed): its physical laws, its independence, its files."""
+"""The foreign testbed (benchmarks/testbed): its physical laws in both engines (Bullet and MuJoCo), its
+independence, its files."""
 from __future__ import annotations
 
 import ast
@@ -11,28 +12,29 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from physics import load_trajectory
+from testbed.cable_robot import CableRobot
 from testbed.controller import Flop
-from testbed.datasets import flops_for, make_dataset, robot_for
+from testbed.datasets import Robot, build_robot, flops_for, make_dataset, robot_for
 from testbed.effects import Effects
 from testbed.params import NOMINAL, closed_faces
 from testbed.record import record_flop
-from testbed.robot import TestbedRobot
 
 TESTBED = Path(__file__).resolve().parents[2] / "benchmarks" / "testbed"
 LIBRARY = {"physics", "belief", "embeddings", "planners", "criticism", "tensegrid"}
+ENGINES = ["bullet", "mujoco"]
 
 
-def _settled(effects: Effects = Effects(), seconds: float = 3.0) -> TestbedRobot:
-    robot = TestbedRobot(NOMINAL, effects)
+def _settled(effects: Effects = Effects(), seconds: float = 3.0, engine: str = "bullet") -> CableRobot:
+    robot = build_robot(Robot(dict(NOMINAL), effects), engine)
     for _ in range(int(seconds / robot.dt)):
         robot.step(robot.rest)
     return robot
 
 
-@pytest.fixture(scope="module")
-def nominal_files(tmp_path_factory) -> dict[str, Path]:
-    out = tmp_path_factory.mktemp("nominal")
-    return {p.stem: p for p in make_dataset("nominal", 0, out)}
+@pytest.fixture(scope="module", params=ENGINES)
+def nominal_files(request, tmp_path_factory) -> dict[str, Path]:
+    out = tmp_path_factory.mktemp(f"nominal-{request.param}")
+    return {p.stem: p for p in make_dataset("nominal", 0, out, engine=request.param)}
 
 
 def test_testbed_imports_nothing_from_the_library():
@@ -49,7 +51,7 @@ def test_testbed_imports_nothing_from_the_library():
 @settings(max_examples=60, deadline=None)
 @given(stretch=st.floats(-0.2, 0.2), rate=st.floats(-5.0, 5.0), hysteresis=st.floats(0.0, 0.9))
 def test_cables_never_push(stretch, rate, hysteresis):
-    robot = TestbedRobot.__new__(TestbedRobot)            # the force law alone, no world
+    robot = CableRobot.__new__(CableRobot)                # the force law alone, no world
     robot.k, robot.c, robot.dt = 800.0, 200.0, 1e-3
     robot.effects = Effects(hysteresis=hysteresis)
     robot.rest = np.full(24, 0.8)
@@ -62,8 +64,9 @@ def test_cables_never_push(stretch, rate, hysteresis):
     assert np.all(force <= 2 * robot.k * max(stretch, 0) + 1e-9)
 
 
-def test_slack_cable_exerts_no_force_in_the_world():
-    robot = _settled(seconds=0.5)
+@pytest.mark.parametrize("engine", ENGINES)
+def test_slack_cable_exerts_no_force_in_the_world(engine):
+    robot = _settled(seconds=0.5, engine=engine)
     rest = robot.rest.copy()
     rest[0] = 2.0                                        # far longer than the cable: slack
     robot.rest = rest
@@ -72,8 +75,9 @@ def test_slack_cable_exerts_no_force_in_the_world():
     robot.close()
 
 
-def test_settles_on_a_face_and_stays_there():
-    robot = _settled()
+@pytest.mark.parametrize("engine", ENGINES)
+def test_settles_on_a_face_and_stays_there(engine):
+    robot = _settled(engine=engine)
     before = robot.nodes()
     base = tuple(sorted(int(i) for i in np.argsort(before[:, 2])[:3]))
     for _ in range(2000):
@@ -96,13 +100,15 @@ def test_flops_move_the_centre_of_mass_and_pass_the_loader(nominal_files):
         assert json.loads(ds.attrs["testbed_theta"])["rod_length"] == NOMINAL["rod_length"]
     truth = json.loads((next(iter(nominal_files.values())).parent / "truth.json").read_text())
     assert truth["effects"] == {}
+    engine = {"bullet": "Bullet", "mujoco": "MuJoCo"}[truth["engine"]]
+    assert f"SUPERball in {engine}" in load_trajectory(nominal_files["flop_0"]).attrs["source"]
 
 
-def _short_run(name: str, seed: int) -> np.ndarray:
+def _short_run(name: str, seed: int, engine: str = "bullet") -> np.ndarray:
     """Observed nodes of 0.3 s of the data set's first flop (short planning trials, noise on)."""
     from testbed.record import Observation, to_dataset
     spec, rng = robot_for(name, seed)
-    robot = TestbedRobot(spec.theta, spec.effects)
+    robot = build_robot(spec, engine)
     for _ in range(300):
         robot.step(robot.rest)
     flop = flops_for(rng)["flop_0"]
@@ -112,15 +118,18 @@ def _short_run(name: str, seed: int) -> np.ndarray:
     return ds["nodes"].values
 
 
-def test_same_seed_same_data_other_seed_other_data():
-    first, again, other = _short_run("perturbed", 3), _short_run("perturbed", 3), _short_run("perturbed", 4)
+@pytest.mark.parametrize("engine", ENGINES)
+def test_same_seed_same_data_other_seed_other_data(engine):
+    first, again = _short_run("perturbed", 3, engine), _short_run("perturbed", 3, engine)
+    other = _short_run("perturbed", 4, engine)
     assert np.array_equal(first, again)
     assert not np.allclose(first, other, atol=1e-3)
 
 
-def test_slope_tilts_the_ground_in_the_world_frame():
+@pytest.mark.parametrize("engine", ENGINES)
+def test_slope_tilts_the_ground_in_the_world_frame(engine):
     effects = Effects(slope=np.deg2rad(5.0), slope_azimuth=0.7)
-    robot = _settled(effects)
+    robot = _settled(effects, engine=engine)
     nodes = robot.nodes()
     base = nodes[np.argsort(nodes @ effects.ground_normal())[:3]]
     normal = np.cross(base[1] - base[0], base[2] - base[0])
@@ -142,10 +151,11 @@ def test_marker_offset_and_missing_samples_reach_only_the_observation():
     np.testing.assert_allclose(nodes[~lost] - rec.nodes[~lost], np.broadcast_to([0.02, -0.015, 0.01], nodes[~lost].shape))
 
 
-def test_actuator_delay_holds_the_rest_lengths_back():
+@pytest.mark.parametrize("engine", ENGINES)
+def test_actuator_delay_holds_the_rest_lengths_back(engine):
     moved = {}
     for delay in (0.0, 0.05):
-        robot = _settled(Effects(actuator_delay=delay), 0.3)
+        robot = _settled(Effects(actuator_delay=delay), 0.3, engine)
         start = robot.rest.copy()
         for _ in range(40):                                  # 40 ms of a command to shorten by 10 %
             robot.step(start * 0.9)
@@ -164,8 +174,9 @@ def test_extra_mass_adds_its_mass():
     assert plain[0] == pytest.approx(3.0, rel=0.05)          # SUPERball: about 3 kg per rod
 
 
-def test_actuators_keep_tension_under_max_tens():
-    robot = _settled(seconds=0.3)
+@pytest.mark.parametrize("engine", ENGINES)
+def test_actuators_keep_tension_under_max_tens(engine):
+    robot = _settled(seconds=0.3, engine=engine)
     command = robot.rest * 0.5                               # far shorter than any cable can be pulled
     peak = 0.0
     for _ in range(500):
@@ -235,3 +246,31 @@ def test_contact_effects_bound_on_the_foreign_robot_cannot_sink_it() -> None:
         (p,) = effect.bind(flops["ground_viscosity"]).parameters()
         assert p.lower <= excess <= p.upper and p.upper < 0.025, (effect.name, p)
     assert contact_excess(flops["marker_offset"]) - excess == pytest.approx(0.01, abs=0.002)
+
+
+def test_the_mujoco_robot_rests_its_nodes_a_cap_radius_above_the_floor_and_matches_bullet_at_rest():
+    """MuJoCo's capsules centre a hemisphere on each node, so the resting robot's three lowest nodes
+    sit ``radius`` above a level floor (less MuJoCo's soft-contact penetration, under 1 mm); Bullet's
+    flat ends rest them lower. The robot is the same: both hold the same pretension at rest."""
+    mujoco, bullet = _settled(seconds=2.0, engine="mujoco"), _settled(seconds=2.0, engine="bullet")
+    low = {name: np.sort(r.nodes()[:, 2])[:3] for name, r in (("mujoco", mujoco), ("bullet", bullet))}
+    tension = {name: r.tensions().mean() for name, r in (("mujoco", mujoco), ("bullet", bullet))}
+    mujoco.close()
+    bullet.close()
+    assert np.all(np.abs(low["mujoco"] - NOMINAL["radius"]) < 1e-3), low
+    assert np.all(low["bullet"] < NOMINAL["radius"] - 5e-3), low
+    assert tension["mujoco"] == pytest.approx(tension["bullet"], rel=0.05)
+    with pytest.raises(ValueError, match="engine"):
+        build_robot(Robot(dict(NOMINAL), Effects()), "ode")
+
+
+def test_the_command_line_passes_the_engine_and_folders_keep_engines_apart(monkeypatch, tmp_path):
+    import testbed.__main__ as cli
+    calls = []
+    monkeypatch.setattr(cli, "make_dataset", lambda name, seed, out, **kw: calls.append((name, seed, out, kw)) or [])
+    assert cli.main(["dataset", "nominal", "--engine", "mujoco", "--seed", "2"]) == 0
+    name, seed, out, kw = calls[0]
+    assert (name, seed, kw["engine"]) == ("nominal", 2, "mujoco")
+    assert out != cli.default_folder("nominal", 2) and out == cli.default_folder("nominal", 2, "mujoco")
+    with pytest.raises(SystemExit):
+        cli.main(["dataset", "nominal", "--engine", "ode"])
