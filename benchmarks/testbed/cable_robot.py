@@ -32,7 +32,7 @@ from testbed.effects import Effects
 from testbed.params import CABLE_ENDS, NOMINAL, ROD_ENDS, closed_faces, node_layout
 
 __all__ = ["CableRobot", "RodBody", "Snapshot", "TestbedDiverged", "build_pose", "rod_inertia", "encoder_zero",
-           "rotation_between"]
+           "rotation_between", "anchor_points", "build_lengths"]
 
 _DT = 1e-3
 _NEAR_GROUND = 0.01
@@ -159,8 +159,6 @@ class CableRobot:
         self.last_length = self._cable_geometry(self._poses())[0]
         self.pending: deque = deque()
         self.time = 0.0
-
-    build_lengths = staticmethod(build_lengths)
 
     def _rod_bodies(self, nodes: np.ndarray) -> list[RodBody]:
         """The six rods at the build pose; stores the anchors and centres of mass in body frames."""
