@@ -9,9 +9,12 @@ smaller than it can win. This stage runs first, on fit trajectories F and held-o
 1. **base**: the model at θ0 re-tuned on F (bounded least squares over its parameters,
    :func:`criticism.search.polish`; ``rod_length`` is set to the length the data show and held,
    :func:`measured_rod_length`): θ_b, fit error E_F(θ_b);
-2. **trials**: each component c of ``MismatchConfig.components`` (an Effect that replaces or
-   reshapes a part of the model) is added and (θ, η_c) is re-tuned jointly on F from (θ_b, η_c's
-   nominal); its gain is g_c = 1 − E_F(c) / E_F(model so far);
+2. **trials**: each round first re-tunes the model so far once more from the trials' starts (the
+   null trial, ``null_trial``) and keeps that θ if it fits F better, so that a component is
+   credited only with what it adds beyond a better re-tuning; then each component c of
+   ``MismatchConfig.components`` (an Effect that replaces or reshapes a part of the model) is
+   added and (θ, η_c) is re-tuned jointly on F from (θ_b, η_c's nominal); its gain is
+   g_c = 1 − E_F(c) / E_F(model so far);
 3. **keep** the component with the largest gain if g_c ≥ ``min_gain``, and try the others again
    on the model that has it (``rounds``). The decision uses F only, so the held-out figures
    below stay out of sample;
@@ -64,7 +67,8 @@ class MismatchConfig:
     of the fit error a component must remove to be kept; rounds: most components kept;
     drift_time [s]: when the open-loop drift is read; local: the least-squares re-tuning;
     bound_tolerance: fraction of the box width within which a value is at a bound; hold_measured:
-    set ``rod_length`` to the data's node distance and hold it (:func:`measured_rod_length`)."""
+    set ``rod_length`` to the data's node distance and hold it (:func:`measured_rod_length`);
+    null_trial: re-tune the model so far at the start of each round (module docstring, step 2)."""
 
     components: tuple[Effect, ...] = field(default_factory=_default_components)
     min_gain: float = 0.1
@@ -73,6 +77,7 @@ class MismatchConfig:
     local: LeastSquaresConfig = field(default_factory=LeastSquaresConfig)
     bound_tolerance: float = AT_BOUND_TOLERANCE
     hold_measured: bool = True
+    null_trial: bool = True
 
     def __post_init__(self) -> None:
         if not (0.0 < self.min_gain < 1.0 and self.rounds >= 0 and self.drift_time > 0):
@@ -85,7 +90,8 @@ class MismatchConfig:
         """The settings as a JSON-able dict (the components by their configs)."""
         return {"components": [c.config() for c in self.components], "min_gain": self.min_gain,
                 "rounds": self.rounds, "drift_time": self.drift_time, "local": vars(self.local),
-                "bound_tolerance": self.bound_tolerance, "hold_measured": self.hold_measured}
+                "bound_tolerance": self.bound_tolerance, "hold_measured": self.hold_measured,
+                **({"null_trial": True} if self.null_trial else {})}
 
 
 @dataclass(frozen=True)
@@ -303,6 +309,17 @@ def _extend(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], effect
     return extended, starts[best]
 
 
+def _null_trial(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], error: float, fit: np.ndarray,
+                config: MismatchConfig) -> tuple[np.ndarray, float]:
+    """The model so far (re-tuned at thetas[0], E_F = ``error``) re-tuned once more from the best of
+    ``thetas`` (each (D,)) on the fit segments; (θ, E_F) of whichever of the two fits better."""
+    scores = objective.evaluate_batch(np.array(thetas))
+    ok = [k for k, status in enumerate(scores.status) if status == "ok"]
+    start = thetas[min(ok, key=lambda k: float(np.nansum(scores.parts[k][fit])))] if ok else thetas[0]
+    theta, fit_error = _retune(objective, np.asarray(start, float), fit, config)
+    return (theta, fit_error) if fit_error < error else (np.asarray(thetas[0], float), error)
+
+
 def _round(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], error: float, fit: np.ndarray,
            candidates: Sequence[Effect], config: MismatchConfig, k: int,
            progress: bool) -> list[tuple[Trial, TrajectoryObjective]]:
@@ -352,6 +369,9 @@ def absorb_mismatch(objective: TrajectoryObjective, fit: np.ndarray | Sequence[b
     for k in range(1, config.rounds + 1):
         restart = np.array([dict(zip(objective.space.names, start, strict=True)).get(n, v)
                             for n, v in zip(model.space.names, current, strict=True)])
+        if config.null_trial:
+            current, error = _null_trial(model, [current, restart], error, fit_mask, config)
+            base_theta = current if k == 1 else base_theta
         tried = _round(model, [current, restart], error, fit_mask, superseded(config.components, model.effects),
                        config, k, progress)
         if not tried:

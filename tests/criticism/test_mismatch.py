@@ -137,3 +137,22 @@ def test_stage_keeps_nothing_on_its_own_engine() -> None:
     report = _stage(data, (TensionLimitedActuation(), CableAnchors(), RollingResistance()), rounds=1)
     assert max(t.gain for t in report.trials) < 0.1
     assert report.effects == (), report.text()
+
+
+@pytest.mark.slow
+def test_stage_on_the_third_engine_takes_its_anchors_and_leaves_bullets_rolling_friction(tmp_path) -> None:
+    """The same robot in MuJoCo (held back from the stage's development; no rolling friction there):
+    the stage keeps the actuator law and the rim anchors, at an offset near the true 6 cm rim, and
+    rolling resistance, which Bullet's data need, does not pay."""
+    from testbed.datasets import make_dataset
+    from testbed.record import Observation
+    paths = make_dataset("nominal", 0, tmp_path, obs=Observation(noise=2e-4), duration=1.0, engine="mujoco")
+    files = {p.stem: p for p in paths}
+    data = [load_trajectory(files[k]) for k in ("flop_0", "heldout_0")]
+    report = _stage(data, (TensionLimitedActuation(), CableAnchors(), RollingResistance()), rounds=3)
+    kept = {e.name for e in report.effects}
+    assert {"tension_limited_actuator", "cable_anchors"} <= kept and "rolling_resistance" not in kept, report.text()
+    offset = report.theta[list(report.names).index("anchor_offset")]
+    assert 0.04 <= offset <= 0.08, offset
+    ratios = report.ratios()
+    assert ratios["drift"] <= 0.5, ratios
