@@ -303,20 +303,23 @@ def _extend(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], effect
         values = dict(zip(objective.space.names, np.asarray(theta, float).tolist(), strict=True))
         values.update(effect.start(objective.trajectories))
         starts.append(np.array([values[n] for n in extended.space.names]))
-    scores = extended.evaluate_batch(np.array(starts))
+    return extended, _best_start(extended, starts, fit)
+
+
+def _best_start(objective: TrajectoryObjective, starts: Sequence[np.ndarray], fit: np.ndarray) -> np.ndarray:
+    """Of ``starts`` (each (D,)), the one with the lowest error on the ``fit`` segments (the first
+    if none evaluates)."""
+    scores = objective.evaluate_batch(np.array(starts))
     ok = [k for k, status in enumerate(scores.status) if status == "ok"]
     best = min(ok, key=lambda k: float(np.nansum(scores.parts[k][fit]))) if ok else 0
-    return extended, starts[best]
+    return np.asarray(starts[best], float)
 
 
 def _null_trial(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], error: float, fit: np.ndarray,
                 config: MismatchConfig) -> tuple[np.ndarray, float]:
     """The model so far (re-tuned at thetas[0], E_F = ``error``) re-tuned once more from the best of
     ``thetas`` (each (D,)) on the fit segments; (θ, E_F) of whichever of the two fits better."""
-    scores = objective.evaluate_batch(np.array(thetas))
-    ok = [k for k, status in enumerate(scores.status) if status == "ok"]
-    start = thetas[min(ok, key=lambda k: float(np.nansum(scores.parts[k][fit])))] if ok else thetas[0]
-    theta, fit_error = _retune(objective, np.asarray(start, float), fit, config)
+    theta, fit_error = _retune(objective, _best_start(objective, thetas, fit), fit, config)
     return (theta, fit_error) if fit_error < error else (np.asarray(thetas[0], float), error)
 
 
