@@ -228,7 +228,8 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
 
 
 def _key(row: dict) -> tuple:
-    """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact read, engine)."""
+    """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact
+    read, engine)."""
     return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"), row.get("flops_version", 1),
             row.get("read_contact", False), row.get("engine", "bullet"))
 
@@ -286,7 +287,8 @@ def main(argv: list[str] | None = None) -> int:
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds
             and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget
-            and r.get("flops_version", 1) == args.flops_version and r.get("read_contact", False) == args.read_contact]
+            and r.get("flops_version", 1) == args.flops_version and r.get("read_contact", False) == args.read_contact
+            and r.get("engine", "bullet") == FOREIGN.get(args.source, "bullet")]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
             if (name, seed, args.held_out, args.budget, args.flops_version, args.read_contact,

@@ -19,7 +19,6 @@ import mujoco
 import numpy as np
 
 from testbed.cable_robot import CableRobot, RodBody, rotation_between
-from testbed.effects import Effects
 
 __all__ = ["MujocoRobot"]
 
@@ -42,9 +41,6 @@ class MujocoRobot(CableRobot):
 
     __test__ = False
     engine, engine_name = "mujoco", "MuJoCo"
-
-    def __init__(self, theta: dict[str, float], effects: Effects = Effects(), *, face: int = 0) -> None:
-        super().__init__(theta, effects, face=face)
 
     def _make_world(self, rods: list[RodBody]) -> None:
         self.model = mujoco.MjModel.from_xml_string(self._xml(rods))
