@@ -237,6 +237,22 @@ class Belief:
         reason names none), read from the reasons: shape ``D``."""
         return [rule_of(r) for r in self.reason]
 
+    def overruled(self, changes: Mapping[str, tuple[str, str]]) -> Belief:
+        """This Belief with the verdicts of some parameters replaced: name -> (verdict, reason). A
+        rule that needs what P cannot hold (criticism's "structure" rule: the value under another
+        model) may only weaken a verdict, never strengthen it. Raises :class:`BeliefError`."""
+        verdicts, reasons = list(self.verdict), list(self.reason)
+        for name, (verdict, reason) in changes.items():
+            if name not in self.space.names or verdict not in VERDICTS:
+                raise BeliefError(f"overruled needs parameters of {list(self.space.names)} and verdicts among "
+                                  f"{list(VERDICTS)}, got {name!r}: {verdict!r}.")
+            j = self.space.names.index(name)
+            if VERDICTS.index(verdict) < VERDICTS.index(verdicts[j]):
+                raise BeliefError(f"overruled may only weaken a verdict: {name} is {verdicts[j]!r}, not {verdict!r}.")
+            verdicts[j], reasons[j] = verdict, reason
+        return Belief(self.P, self.theta, self.space, decoder_config=self.decoder_config, grid_config=self.grid_config,
+                      verdicts=verdicts, reasons=reasons, attrs=self.attrs, level=self.level, spread=self.spread)
+
     def entropy(self) -> float:
         """Shannon entropy -Σ P log P of P over the cells [nats] (0 for one cell, log n for uniform P)."""
         return entropy(self.P)

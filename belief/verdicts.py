@@ -90,6 +90,7 @@ RULES: dict[str, str] = {
     "evaluated support": "the interval holds the best evaluated value",
     "local refit": "a Gauss-Newton step from the best evaluation stays inside the interval",
     "at bound": "the fitted value is not pinned at a bound of the box",
+    "structure": "the value does not hang on which other parts the model was given (applied by criticism)",
 }
 
 

@@ -234,11 +234,14 @@ def _held_errors(objective: Objective, theta: np.ndarray, held: np.ndarray) -> d
 def _record_after(step: Pass, added: str, extended: Objective, ident: IdentificationResult,
                   held: np.ndarray) -> None:
     """Fill ``step``'s "after" fields: the effect ``added``, the extended model's names, θ̂ of the
-    re-identification ``ident``, its held-out errors and its Belief."""
+    re-identification ``ident``, its held-out errors and its Belief; an effect found on the second
+    look has its sizes checked against those it had alone (Revisit.check_sizes)."""
     step.added, step.names_after = added, extended.space.names
     step.theta_after = np.asarray(ident.best_theta, float)
     step.held_after = _held_errors(extended, step.theta_after, held)
-    step.belief_after = ident.belief
+    second_look = step.revisit if step.criticism.found is None else None
+    belief = ident.belief
+    step.belief_after = second_look.check_sizes(belief) if second_look is not None and belief is not None else belief
 
 
 def identify_from(objective: Objective, warm: np.ndarray | None, *, budget: int, candidates: int, seed: int,

@@ -14,16 +14,26 @@ e are scored together against the ranking's base (criticism.candidate: explained
 evidence, k = all their parameters), and e is **found** with them when that row reaches
 criticism's ``min_evidence`` and ``min_fraction``. The replication check is not repeated for the
 pair: the held-out flop, which neither the stage nor the fit sees, is the test.
+
+A size found that way hangs on the components that entered with it: on the Bullet testbed the
+hysteresis fitted alone sat inside the truth's range, and with the actuator law beside it well
+above, with a narrow interval. The data chose both the components and the size, so the
+re-identified interval, conditional on that structure, is too narrow. :meth:`Revisit.check_sizes`
+applies the "structure" verdict rule (belief.verdicts.RULES): a parameter of e whose value in
+criticism's joint fit (e alone on the pass's model) lies outside its credible interval with the
+components is *not identified*.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from belief.belief import Belief
+from belief.verdicts import VERDICTS, because
 from criticism.candidate import Candidate, effective_counts, scored
 from criticism.mismatch import MismatchConfig, MismatchReport
 from criticism.search import Criticism, CriticismConfig
@@ -38,13 +48,15 @@ __all__ = ["Revisit", "revisit_stage"]
 class Revisit:
     """effect: the suspect's name; tried: the components tried again; report: the stage on the
     model with the suspect; row: the suspect with the components kept now, scored against the
-    ranking's base (None when none was kept); found: whether that row passes criticism's bars."""
+    ranking's base (None when none was kept); found: whether that row passes criticism's bars;
+    alone: the suspect's sizes in criticism's joint fit, without the components (name -> value)."""
 
     effect: str
     tried: tuple[str, ...]
     report: MismatchReport
     row: Candidate | None
     found: bool
+    alone: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def components(self) -> tuple[Effect, ...]:
@@ -65,7 +77,25 @@ class Revisit:
         """A JSON-able record."""
         return {"effect": self.effect, "tried": list(self.tried), "kept": [e.config() for e in self.components],
                 "explained": None if self.row is None else self.row.explained,
-                "evidence": None if self.row is None else self.row.evidence, "found": self.found}
+                "evidence": None if self.row is None else self.row.evidence, "found": self.found,
+                "alone": dict(self.alone)}
+
+    def check_sizes(self, belief: Belief) -> Belief:
+        """``belief`` (the re-identification with the suspect and the components) with the
+        "structure" rule of the module docstring applied to the suspect's parameters: a size alone
+        outside its interval makes it *not identified*."""
+        m = belief.marginals()
+        kept = ", ".join(e.name for e in self.components)
+        changes: dict[str, tuple[str, str]] = {}
+        for name, value in self.alone.items():
+            if name not in belief.space.names or belief.verdicts[name][0] == VERDICTS[2]:
+                continue
+            lo, hi = float(m["lower"].sel(parameter=name)), float(m["upper"].sel(parameter=name))
+            if not lo <= value <= hi:
+                changes[name] = (VERDICTS[2], because(
+                    "structure", f"{value:.4g} with {self.effect} alone but [{lo:.4g}, {hi:.4g}] with {kept} beside "
+                                 f"it: the size hangs on which components the data let in, not on the data"))
+        return belief.overruled(changes) if changes else belief
 
 
 def _suspect(crit: Criticism, stage: MismatchReport, config: MismatchConfig) -> tuple[Candidate, list[Effect]] | None:
@@ -94,8 +124,9 @@ def revisit_stage(model: TrajectoryObjective, crit: Criticism, stage: MismatchRe
     report = journalled_stage(suspect, fit, held_idx, config=replace(config, components=tuple(rejected)),
                               journal_dir=journal_dir, progress=progress, theta=np.asarray(top.theta, float))
     tried = tuple(c.name for c in rejected)
+    alone = {n: float(v) for n, v in top.values.items()}
     if not report.effects:
-        return Revisit(top.name, tried, report, None, False)
+        return Revisit(top.name, tried, report, None, False, alone)
     after = suspect.with_effects(tuple(suspect.effects) + report.effects)
     stage_values = dict(zip(report.names, np.asarray(report.theta, float).tolist(), strict=True))
     theta = np.array([stage_values[n] for n in after.space.names])   # the stage orders its effects its own way
@@ -107,4 +138,4 @@ def revisit_stage(model: TrajectoryObjective, crit: Criticism, stage: MismatchRe
                  len(values), top.config, top.placements)
     row = replace(row, stage="revisit", theta=tuple(float(v) for v in theta))
     found = row.evidence >= criticism.min_evidence and row.explained >= criticism.min_fraction
-    return Revisit(top.name, tried, report, row, found)
+    return Revisit(top.name, tried, report, row, found, alone)

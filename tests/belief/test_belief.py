@@ -274,3 +274,21 @@ def test_a_grid_that_is_not_grid_config_is_refused() -> None:
     assert np.array_equal(b.p, P.values)
     with pytest.raises(BeliefError, match="grid differs from grid_config"):
         Belief(P, dec.decode(grid.points), space, decoder_config=dec.config(), grid_config=grid.config(), grid=other)
+
+
+def test_overruled_only_weakens_and_keeps_the_rest(tmp_path) -> None:
+    """A rule P cannot hold (criticism's "structure") may weaken a verdict, never strengthen it;
+    P, θ and the other verdicts stay, and the new reason survives the file."""
+    b = _belief("identity", verdicts=["identified", "weakly identified"], reasons=["narrowing: a", "narrowing: b"])
+    o = b.overruled({"x0": ("not identified", "structure: hangs on the model")})
+    assert o.verdicts == {"x0": ("not identified", "structure: hangs on the model"),
+                          "x1": ("weakly identified", "narrowing: b")}
+    assert o.rules == ["structure", "narrowing"] and b.verdict[0] == "identified"
+    np.testing.assert_array_equal(o.p, b.p)
+    np.testing.assert_array_equal(o.interval(), b.interval())
+    o.save(tmp_path / "o.nc")
+    assert Belief.load(tmp_path / "o.nc").verdicts == o.verdicts
+    with pytest.raises(BeliefError, match="only weaken"):
+        b.overruled({"x1": ("identified", "structure: no")})
+    with pytest.raises(BeliefError, match="x9"):
+        b.overruled({"x9": ("not identified", "structure: no")})

@@ -215,6 +215,7 @@ def test_the_second_look_finds_an_effect_with_the_component_the_stage_rejected(m
     assert second.row.explained >= 0.3 and second.row.evidence >= 10 and set(second.row.values) == {"drag",
                                                                                                 "anchor_offset"}
     assert "kept cable_anchors" in second.text() and "-> found" in second.text()
+    assert second.alone == crit.ranking[0].values and second.as_dict()["alone"] == second.alone
     assert revisit_stage(model, crit, _stage(()), FIT, ~FIT, [], config=config, criticism=CriticismConfig()) is None
     only_top = MismatchConfig(components=(SensorBias(), AirDrag()))
     assert revisit_stage(model, crit, first, FIT, ~FIT, [], config=only_top, criticism=CriticismConfig()) is None
