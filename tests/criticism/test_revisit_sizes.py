@@ -15,7 +15,8 @@ from embeddings import Identity
 from physics.effects import TensionLimitedActuation
 from physics.parameters import Parameter, ParameterSpace
 
-SPACE = ParameterSpace((Parameter("rate", "1", 1.0, 0.5, 2.0), Parameter("hysteresis", "1", 0.3, 0.0, 1.0, minimum=-1.0)))
+SPACE = ParameterSpace((Parameter("rate", "1", 1.0, 0.5, 2.0),
+                        Parameter("hysteresis", "1", 0.3, 0.0, 1.0, minimum=-1.0)))
 
 
 def _belief(centre: float, verdict: str = "identified") -> Belief:
