@@ -146,8 +146,8 @@ class Pass:
 
     def estimates(self) -> dict[str, dict[str, Any]]:
         """The added effect's parameters after re-identification: name -> {"value" (best θ),
-        "lower", "upper" (the Belief's credible interval), "level", "verdict", "at_bound" ("lower" or
-        "upper" when pinned there, else "")}; empty when nothing was added."""
+        "lower", "upper" (the Belief's credible interval), "level", "verdict", "reason", "at_bound"
+        ("lower" or "upper" when pinned there, else "")}; empty when nothing was added."""
         if self.theta_after is None:
             return {}
         names = self.names_after[len(self.names):]
@@ -158,7 +158,8 @@ class Pass:
             for n in names:
                 row = m.sel(parameter=n)
                 out[n].update(lower=float(row["lower"]), upper=float(row["upper"]), level=float(m.attrs["level"]),
-                              verdict=str(row["verdict"].values), at_bound=str(row["at_bound"].values))
+                              verdict=str(row["verdict"].values), reason=str(row["reason"].values),
+                              at_bound=str(row["at_bound"].values))
         return out
 
     @property

@@ -22,7 +22,7 @@ from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
 from belief.html_report import Page, command_line, data_section, parameter_table, reproduce_section
 from criticism.candidate import place_text, values_text
 from criticism.diagnose import Diagnosis, Pass
-from criticism.report import diagnosis_text
+from criticism.report import diagnosis_text, estimate_verdict
 
 __all__ = ["write_diagnose_report"]
 
@@ -79,7 +79,7 @@ def _pass(page: Page, k: int, p: Pass, d: Diagnosis) -> None:
         _held_out(page, p)
         estimates = p.estimates()
         rows = [[n, e["value"], f"[{e['lower']:.4g}, {e['upper']:.4g}]" if "lower" in e else "-",
-                 e.get("verdict", "-") + (f" (at {e['at_bound']} bound)" if e.get("at_bound") else "")]
+                 estimate_verdict(e)]
                 for n, e in estimates.items()]
         page.table(["re-identified", "value", "interval", "verdict"], rows)
     block = inadequacy_text(p.at_bounds, after="the re-tuning",

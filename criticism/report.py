@@ -26,6 +26,7 @@ import numpy as np
 import xarray as xr
 
 from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
+from belief.verdicts import rule_of
 from criticism.diagnose import Diagnosis, Pass
 from criticism.residuals import residual_dataset
 from physics.effects import Effect
@@ -35,7 +36,7 @@ from physics.trajectory_objective import TrajectoryObjective
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["diagnosis_text", "diagnosis_record", "write_report"]
+__all__ = ["diagnosis_text", "diagnosis_record", "write_report", "estimate_verdict"]
 
 
 def diagnosis_text(d: Diagnosis) -> str:
@@ -91,13 +92,20 @@ def _outcome(p: Pass) -> list[str]:
     return out
 
 
+def estimate_verdict(e: dict[str, Any]) -> str:
+    """An estimate's verdict (Pass.estimates), with "at lower/upper bound" when pinned there and
+    the reason when the "structure" rule decided it: a rule P cannot show needs its words."""
+    side = f" (at {e['at_bound']} bound)" if e.get("at_bound") else ""
+    why = f" ({e['reason']})" if rule_of(str(e.get("reason", ""))) == "structure" else ""
+    return f"{e.get('verdict', '-')}{side}{why}"
+
+
 def _estimate(name: str, e: dict[str, Any]) -> str:
     """``name=value`` with the credible interval and verdict when the re-identification has a Belief."""
     if "lower" not in e:
         return f"{name}={e['value']:.4g}"
-    side = f", at {e['at_bound']} bound" if e.get("at_bound") else ""
     return (f"{name}={e['value']:.4g} ({e['level']:.0%} interval [{e['lower']:.4g}, {e['upper']:.4g}], "
-            f"{e['verdict']}{side})")
+            f"{estimate_verdict(e)})")
 
 
 def diagnosis_record(d: Diagnosis) -> dict[str, Any]:

@@ -10,6 +10,7 @@ import numpy as np
 from belief.belief import Belief
 from belief.grid import Grid
 from criticism.diagnose import _record_after
+from criticism.report import estimate_verdict
 from criticism.revisit import Revisit
 from embeddings import Identity
 from physics.effects import TensionLimitedActuation
@@ -61,3 +62,14 @@ def test_the_loop_checks_sizes_only_for_an_effect_the_second_look_found() -> Non
         step = SimpleNamespace(criticism=SimpleNamespace(found=found), revisit=_revisit(0.21))
         _record_after(step, "cable_hysteresis", objective, ident, np.array([True]))
         assert step.belief_after.rules[1] == rule and step.held_after == {"t0": 1.0}
+
+
+def test_the_report_gives_the_structure_rule_its_words() -> None:
+    """A verdict the structure rule decided is printed with its reason (P cannot show it); others
+    only with their verdict and bound."""
+    checked = _revisit(0.21).check_sizes(_belief(0.55))
+    verdict, reason = checked.verdicts["hysteresis"]
+    text = estimate_verdict({"verdict": verdict, "reason": reason, "at_bound": ""})
+    assert text.startswith("not identified (structure: 0.21 with cable_hysteresis alone")
+    assert estimate_verdict({"verdict": "identified", "reason": "narrowing: ok", "at_bound": "upper"}) == \
+        "identified (at upper bound)"
