@@ -46,7 +46,10 @@ def catalog_equivalent(effect: str, truth: dict, row: dict | None = None) -> tup
     - air_drag: the testbed's rod ends feel -d v, the catalog's -c |v| v; the c closest in force
       over the speeds s of the rod ends in the row's two fit flops (least squares):
       c = d Σ s³ / Σ s⁴ (low = high).
+    - actuator_delay: the same law in both, the delay in seconds (low = high).
     """
+    if effect == "actuator_delay":
+        return truth["actuator_delay"], truth["actuator_delay"]
     if effect == "cable_hysteresis":
         t6 = ParameterSpace.t6()
         k = t6.index("stiffnessActive")
@@ -99,21 +102,30 @@ def testbed_size(effect: str, values: dict[str, float], truth: dict, config: dic
 
 def _sizes(rows: list[dict]) -> None:
     """The sizes of the testbed rows whose true effect is ranked first, and its re-identified
-    interval, with whether it holds the truth in the catalog's law (:func:`catalog_equivalent`)."""
+    interval, with whether it holds the truth in the catalog's law (:func:`catalog_equivalent`);
+    then the tally: intervals that hold it, and claims ("identified") that miss it."""
     sized = [r for r in rows if r.get("held_out") == "testbed" and r["truth"] and r["top"] == r["truth"][0]]
     if sized:
         print("\nsizes where the true effect is ranked first (testbed):")
+    tally: list[tuple[str, bool]] = []
     for r in sized:
         equivalent = catalog_equivalent(r["top"], r["true_values"], r)
         print(f"{r['scenario']} seed {r['seed']}{' (found)' if r['found'] else ''}: "
               + testbed_size(r["top"], r["top_values"], r["true_values"], r.get("top_config"), equivalent))
         for name, e in (r.get("estimates") or {}).items():
             lower, upper = e.get("lower", float("nan")), e.get("upper", float("nan"))
-            holds = (f"; meets the catalog-law truth {_range_text(equivalent)}: "
-                     f"{'yes' if lower <= equivalent[1] and equivalent[0] <= upper else 'NO'}"
-                     if equivalent is not None and name in r["top_values"] else "")
+            holds = None
+            if equivalent is not None and name in r["top_values"]:
+                holds = bool(lower <= equivalent[1] and equivalent[0] <= upper)
+                tally.append((e.get("verdict", ""), holds))
+            meets = "" if holds is None else \
+                f"; meets the catalog-law truth {_range_text(equivalent)}: {'yes' if holds else 'NO'}"
             print(f"    re-identified {name}: {e['value']:.4g} in [{lower:.4g}, {upper:.4g}] ({e.get('verdict', '')}"
-                  f"{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''}){holds}")
+                  f"{', at ' + e['at_bound'] + ' bound' if e.get('at_bound') else ''}){meets}")
+    if tally:
+        claims = [holds for verdict, holds in tally if verdict == "identified"]
+        print(f"intervals that meet the catalog-law truth: {sum(h for _, h in tally)} of {len(tally)}; "
+              f"claims (identified) that miss it: {claims.count(False)} of {len(claims)}")
 
 
 def _searched(row: dict) -> list[str]:

@@ -3,7 +3,7 @@ checked against both laws themselves."""
 from __future__ import annotations
 
 import numpy as np
-from effects_table import catalog_equivalent
+from effects_table import catalog_equivalent, summarize
 from testbed.effects import Effects
 from testbed.params import NOMINAL
 from testbed.robot import TestbedRobot
@@ -37,3 +37,22 @@ def test_the_testbeds_hysteresis_is_the_catalogs_at_the_equivalent_size() -> Non
 def test_a_law_without_a_map_has_no_equivalent() -> None:
     assert catalog_equivalent("ground_viscosity", {"ground_viscosity": 150.0}) is None
     assert catalog_equivalent("air_drag", {"drag": 3.0}) is None      # needs the row's flops
+
+
+def _row(seed: int, verdict: str, lower: float, upper: float) -> dict:
+    """A testbed row whose found hysteresis was re-identified in [lower, upper] with ``verdict``."""
+    return {"scenario": "hysteresis", "seed": seed, "held_out": "testbed", "truth": ["cable_hysteresis"],
+            "top": "cable_hysteresis", "top_values": {"hysteresis": 0.3}, "true_values": {"hysteresis": 0.3},
+            "found": ["cable_hysteresis"], "top_explained": 0.5, "held_before": 1.0, "held_after": 0.4,
+            "estimates": {"hysteresis": {"value": 0.5 * (lower + upper), "lower": lower, "upper": upper,
+                                         "verdict": verdict}}}
+
+
+def test_the_tally_counts_intervals_and_claims_that_miss(capsys) -> None:
+    """Intervals against the catalog-law truth 0.11-0.43: two hold it, one claim misses it, and a
+    miss called "not identified" is no claim; the delay's truth is its own law's."""
+    summarize([_row(0, "identified", 0.2, 0.3), _row(1, "identified", 0.5, 0.6),
+               _row(2, "not identified", 0.45, 0.6), _row(3, "weakly identified", 0.0, 0.9)])
+    out = capsys.readouterr().out
+    assert "intervals that meet the catalog-law truth: 2 of 4; claims (identified) that miss it: 1 of 2" in out
+    assert catalog_equivalent("actuator_delay", {"actuator_delay": 0.05}) == (0.05, 0.05)
