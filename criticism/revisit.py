@@ -94,7 +94,7 @@ class Revisit:
             if not lo <= value <= hi:
                 changes[name] = (VERDICTS[2], because(
                     "structure", f"{value:.4g} with {self.effect} alone but [{lo:.4g}, {hi:.4g}] with {kept} beside "
-                                 f"it: the size hangs on which components the data let in, not on the data"))
+                                 f"it: the size depends on which components the same data let in"))
         return belief.overruled(changes) if changes else belief
 
 
