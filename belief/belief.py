@@ -246,7 +246,7 @@ class Belief:
             if name not in self.space.names or verdict not in VERDICTS:
                 raise BeliefError(f"overruled needs parameters of {list(self.space.names)} and verdicts among "
                                   f"{list(VERDICTS)}, got {name!r}: {verdict!r}.")
-            j = self.space.names.index(name)
+            j = self.space.index(name)
             if VERDICTS.index(verdict) < VERDICTS.index(verdicts[j]):
                 raise BeliefError(f"overruled may only weaken a verdict: {name} is {verdicts[j]!r}, not {verdict!r}.")
             verdicts[j], reasons[j] = verdict, reason

@@ -128,11 +128,18 @@ class Pass:
     revisit: Revisit | None = None
 
     @property
+    def second_look(self) -> Revisit | None:
+        """The second look (criticism.revisit) when it found this pass's effect; None when
+        criticism found it itself or nothing was found."""
+        found_here = self.criticism.found is None and self.revisit is not None and self.revisit.found
+        return self.revisit if found_here else None
+
+    @property
     def found(self) -> Candidate | None:
         """The row of the effect this pass found: criticism's, or the second look's (criticism.revisit)."""
         if self.criticism.found is not None:
             return self.criticism.found
-        return self.revisit.row if self.revisit is not None and self.revisit.found else None
+        return self.second_look.row if self.second_look is not None else None
 
     @property
     def additions(self) -> tuple[Effect, ...]:
@@ -141,7 +148,7 @@ class Pass:
         row = self.found
         if row is None:
             return ()
-        extra = self.revisit.components if self.criticism.found is None and self.revisit is not None else ()
+        extra = self.second_look.components if self.second_look is not None else ()
         return (effect_from_config(row.config),) + extra
 
     def estimates(self) -> dict[str, dict[str, Any]]:
@@ -240,9 +247,8 @@ def _record_after(step: Pass, added: str, extended: Objective, ident: Identifica
     step.added, step.names_after = added, extended.space.names
     step.theta_after = np.asarray(ident.best_theta, float)
     step.held_after = _held_errors(extended, step.theta_after, held)
-    second_look = step.revisit if step.criticism.found is None else None
-    belief = ident.belief
-    step.belief_after = second_look.check_sizes(belief) if second_look is not None and belief is not None else belief
+    look, belief = step.second_look, ident.belief
+    step.belief_after = look.check_sizes(belief) if look is not None and belief is not None else belief
 
 
 def identify_from(objective: Objective, warm: np.ndarray | None, *, budget: int, candidates: int, seed: int,

@@ -84,13 +84,13 @@ class Revisit:
         """``belief`` (the re-identification with the suspect and the components) with the
         "structure" rule of the module docstring applied to the suspect's parameters: a size alone
         outside its interval makes it *not identified*."""
-        m = belief.marginals()
+        intervals = belief.interval()
         kept = ", ".join(e.name for e in self.components)
         changes: dict[str, tuple[str, str]] = {}
         for name, value in self.alone.items():
             if name not in belief.space.names or belief.verdicts[name][0] == VERDICTS[2]:
                 continue
-            lo, hi = float(m["lower"].sel(parameter=name)), float(m["upper"].sel(parameter=name))
+            lo, hi = (float(v) for v in intervals[belief.space.index(name)])
             if not lo <= value <= hi:
                 changes[name] = (VERDICTS[2], because(
                     "structure", f"{value:.4g} with {self.effect} alone but [{lo:.4g}, {hi:.4g}] with {kept} beside "
