@@ -6,6 +6,8 @@ per problem) is recorded with 1 mm sensor noise, by one of these data-generating
 - ``testbed1``, ``testbed3``: the foreign robot (benchmarks/testbed, a SUPERball in Bullet that
   shares no code with the library): the ``perturbed`` data set of seed = problem (its 12 active
   parameters drawn within ±10 %, the three motor parameters inert), its first flop or all three;
+- ``mujoco1``, ``mujoco3``: the same robots and flops in MuJoCo (benchmarks/testbed/mujoco_robot.py,
+  the third engine), which no choice of this library was tuned on;
 - ``own``: this project's model, as the identifier assumes it;
 - ``mismatch``: a deliberately different model the identifier is not told about: physics step
   0.5 ms instead of 1 ms, ground friction 0.8 instead of 0.5, rod spin damping 0.5 instead of
@@ -23,6 +25,7 @@ miss the best evaluated θ (target 0: P must not contradict its evaluations), an
 interval width per parameter in % of the prior box.
 
     .venv/bin/python benchmarks/calibration_t6.py --scenarios testbed1 testbed3 --problems 10 --budgets 60
+    .venv/bin/python benchmarks/calibration_t6.py --scenarios mujoco1 --problems 10 --budgets 60 --first-seed 0
     .venv/bin/python benchmarks/calibration_t6.py                      # 20 problems, budgets 40 and 120
     .venv/bin/python benchmarks/calibration_t6.py --problems 4 --budgets 30 --rule iid   # quick, old rule
     .venv/bin/python benchmarks/calibration_t6.py --bias --problems 3 --budgets 60       # the shared bias
@@ -48,7 +51,7 @@ from physics import (
     FlopController, ModelOptions, MotorGains, ParameterSpace, TrajectoryObjective, load_trajectory, simulate,
 )
 
-SCENARIOS = ("testbed1", "testbed3", "own", "mismatch")
+SCENARIOS = ("testbed1", "testbed3", "mujoco1", "mujoco3", "own", "mismatch")
 MISMATCH = ModelOptions(dt=5e-4, friction=0.8, spin_damping=0.5, motor=MotorGains(kp=5.0, kv=0.1))
 
 
@@ -65,10 +68,11 @@ class Outcome:
     best: np.ndarray | None = None
 
 
-def testbed_data(seed: int, flops: int, *, noise: float = 1e-3):
-    """(θ*, the first ``flops`` flops) of the testbed's ``perturbed`` data set at ``seed``."""
+def testbed_data(seed: int, flops: int, *, noise: float = 1e-3, engine: str = "bullet"):
+    """(θ*, the first ``flops`` flops) of the testbed's ``perturbed`` data set at ``seed``, recorded in
+    ``engine`` ("bullet" or "mujoco")."""
     from testbed.datasets import cached_dataset
-    files = cached_dataset("perturbed", seed, noise=noise)
+    files = cached_dataset("perturbed", seed, noise=noise, engine=engine)
     truth = json.loads((files["flop_0"].parent / "truth.json").read_text())
     theta = ParameterSpace.t6().as_array(truth["theta"])
     return theta, [load_trajectory(files[f"flop_{k}"]) for k in range(flops)]
@@ -76,8 +80,9 @@ def testbed_data(seed: int, flops: int, *, noise: float = 1e-3):
 
 def problem_data(seed: int, scenario: str, *, duration: float = 3.0, noise: float = 1e-3):
     """(θ*, flop trajectory or trajectories) of problem ``seed`` under ``scenario``."""
-    if scenario.startswith("testbed"):
-        return testbed_data(seed, int(scenario[-1]), noise=noise)
+    if scenario.startswith(("testbed", "mujoco")):
+        engine = "mujoco" if scenario.startswith("mujoco") else "bullet"
+        return testbed_data(seed, int(scenario[-1]), noise=noise, engine=engine)
     space = ParameterSpace.t6()
     theta = space.sample(1, seed=seed)[0]
     heading = float(np.random.default_rng([seed, 7]).uniform(-np.pi, np.pi))

@@ -36,3 +36,23 @@ def test_score_counts_only_identified_parameters() -> None:
     assert s["worst_widths"] == pytest.approx(0.5 / 0.1)
     old = bench.score([o], old_flag=True)                     # the previous flag: only the third
     assert old["identified"] == 1 and old["covered"] == 0 and old["worst_widths"] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize(("scenario", "engine"),
+                         [("testbed1", "bullet"), ("testbed3", "bullet"), ("mujoco1", "mujoco")])
+def test_foreign_scenarios_read_their_engines_recording(scenario: str, engine: str, monkeypatch) -> None:
+    import testbed.datasets as datasets
+
+    asked: list[tuple[str, int, str]] = []
+
+    class Asked(Exception):
+        pass
+
+    def fake(name: str, seed: int, *, noise: float, engine: str):
+        asked.append((name, seed, engine))
+        raise Asked
+
+    monkeypatch.setattr(datasets, "cached_dataset", fake)
+    with pytest.raises(Asked):
+        bench.problem_data(4, scenario)
+    assert asked == [("perturbed", 4, engine)]
