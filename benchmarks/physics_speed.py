@@ -37,13 +37,27 @@ def _median_time(fn, repeats: int) -> tuple[float, list[float]]:
     return float(np.median(times)), times
 
 
-def main(repeats: int = 5) -> dict:
-    figures = {}
-    # 1. one simulated second of a flop (motors moving, contacts), whole step vs DART's step alone
+class _TimedWorld:
+    """Stands in for the DART world inside ``T6Model.step`` and adds up the seconds of its ``step`` calls."""
+
+    def __init__(self, world):
+        self.world, self.seconds = world, 0.0
+
+    def step(self):
+        start = time.perf_counter()
+        self.world.step()
+        self.seconds += time.perf_counter() - start
+
+    def __getattr__(self, name):
+        return getattr(self.world, name)
+
+
+def step_costs(repeats: int) -> dict[str, float]:
+    """One simulated second of a flop (motors moving, contacts) [ms wall]: the whole step and DART's
+    ``world.step`` alone, medians over ``repeats``."""
     model = settled_model()
     state = model.get_state()
-    readings = model.rest_length_readings()
-    target = readings.copy()
+    target = model.rest_length_readings().copy()
     target[:4] *= 0.8
     target[4:8] *= 1.2
 
@@ -51,68 +65,51 @@ def main(repeats: int = 5) -> dict:
         model.set_state(state)
         model.step(target, n=1000)
 
-    class _TimedWorld:
-        """Stands in for the DART world inside ``model.step`` and times its ``step`` calls."""
-
-        def __init__(self, world):
-            self.world, self.seconds = world, 0.0
-
-        def step(self):
-            start = time.perf_counter()
-            self.world.step()
-            self.seconds += time.perf_counter() - start
-
-        def __getattr__(self, name):
-            return getattr(self.world, name)
-
-    def engine_second():
+    def engine_second() -> float:
         timed = _TimedWorld(model.world)
         model.world = timed
         try:
             full_second()
         finally:
             model.world = timed.world
-        engine_seconds.append(timed.seconds)
-
-    engine_seconds: list[float] = []
+        return timed.seconds
 
     full_second()
-    figures["ms_per_sim_second"], _ = _median_time(full_second, repeats)
-    for _ in range(repeats):
-        engine_second()
-    figures["engine_ms_per_sim_second"] = float(np.median(engine_seconds))
-    figures["ms_per_sim_second"] *= 1e3
-    figures["engine_ms_per_sim_second"] *= 1e3
+    whole, _ = _median_time(full_second, repeats)
+    engine = float(np.median([engine_second() for _ in range(repeats)]))
+    return {"ms_per_sim_second": 1e3 * whole, "engine_ms_per_sim_second": 1e3 * engine}
 
-    # 2. one E(θ) evaluation on the default data (3 s flop at 100 Hz, one-step error)
+
+def objective_costs(repeats: int) -> dict[str, float]:
+    """One E(θ) on a 3-s flop at 100 Hz (one-step error) [s]; a batch of 8, serial in this process
+    against a local dask cluster of 2 workers [s]; and the machine's ceiling: the same 8 as two plain
+    processes of 4 against one process doing all 8 (a ratio)."""
     data = simulate(controller=FlopController(heading=0.0), duration=3.0)
-    space = ParameterSpace.t6()
     E = TrajectoryObjective(data, loss="norm", n_workers=2)
-    thetas = space.sample(8, seed=0)
+    thetas = ParameterSpace.t6().sample(8, seed=0)
     E(thetas[0])
-    figures["seconds_per_E"], _ = _median_time(lambda: E(thetas[1]), repeats)
-
-    # 3. a batch of 8 evaluations: serial in this process vs a local dask cluster of 2 workers
+    figures = {"seconds_per_E": _median_time(lambda: E(thetas[1]), repeats)[0]}
     E.evaluate_batch(thetas[:2])          # start the cluster and warm the workers
     serial, _ = _median_time(lambda: E.evaluate_batch(thetas, parallel=False), max(1, repeats // 2))
     parallel, _ = _median_time(lambda: E.evaluate_batch(thetas), max(1, repeats // 2))
     E.close()
-    # ceiling of this machine: the same 8 evaluations as two plain processes of 4, no dask
     from concurrent.futures import ProcessPoolExecutor
     with ProcessPoolExecutor(2) as pool:
         halves = list(pool.map(_serial_half, [(E, thetas[:4]), (E, thetas[4:])]))
     alone = _serial_half((E, thetas[:4])) + _serial_half((E, thetas[4:]))
-    figures["two_process_ceiling"] = alone / max(halves)
-    figures["batch8_serial_s"] = serial
-    figures["batch8_2workers_s"] = parallel
-    figures["batch8_speedup"] = serial / parallel
+    return {**figures, "two_process_ceiling": alone / max(halves), "batch8_serial_s": serial,
+            "batch8_2workers_s": parallel, "batch8_speedup": serial / parallel}
 
+
+def main(repeats: int = 5) -> dict:
+    """Measure and print the figures of the module docstring; returns them."""
+    figures = {**step_costs(repeats), **objective_costs(repeats)}
     print(f"cores: {os.cpu_count()}, repeats: {repeats} (medians)")
     print(f"simulated second at dt = 1 ms (flop, contacts): {figures['ms_per_sim_second']:.1f} ms wall "
           f"(target <= 60), of which DART's world.step: {figures['engine_ms_per_sim_second']:.1f} ms")
     print(f"one E(θ), 3 s of data at 100 Hz, one-step: {figures['seconds_per_E']:.3f} s")
-    print(f"batch of 8 E(θ): serial {serial:.2f} s, 2 dask workers {parallel:.2f} s, "
-          f"speed-up {figures['batch8_speedup']:.2f}x (target >= 1.7)")
+    print(f"batch of 8 E(θ): serial {figures['batch8_serial_s']:.2f} s, 2 dask workers "
+          f"{figures['batch8_2workers_s']:.2f} s, speed-up {figures['batch8_speedup']:.2f}x (target >= 1.7)")
     print(f"ceiling of this machine: two plain processes of 4 evaluations each run "
           f"{figures['two_process_ceiling']:.2f}x faster than one process doing all 8")
     return figures
