@@ -239,7 +239,8 @@ def latest_rows(rows: list[dict]) -> list[dict]:
     return list({_key(r): r for r in rows}.values())
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> argparse.ArgumentParser:
+    """The command line of the module docstring."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. first-seed + seeds - 1")
@@ -267,7 +268,11 @@ def main(argv: list[str] | None = None) -> int:
                          "stage and first identification; a journal of another problem is an error)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
     if args.summarize:
         saved = [r for path in args.summarize for r in read_rows(path)]
         saved = latest_rows(saved) if args.latest else saved
