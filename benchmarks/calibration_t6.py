@@ -41,6 +41,7 @@ import json
 import os
 import sys
 import tempfile
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -157,6 +158,16 @@ def misses_best(o: Outcome) -> list[int]:
     return [j for j, v in enumerate(o.verdict) if v != "not identified" and not o.lower[j] <= o.best[j] <= o.upper[j]]
 
 
+def claimed_names(outcomes: list[Outcome], names: Sequence[str], first_seed: int) -> str:
+    """``"seed: name (verdict), ..."`` per problem, ``-`` where nothing is identified or weakly."""
+    parts = []
+    for k, o in enumerate(outcomes):
+        said = [f"{n}{'' if v == 'identified' else ' (weakly)'}" for n, v in zip(names, o.verdict, strict=True)
+                if v != "not identified"]
+        parts.append(f"{first_seed + k}: {', '.join(said) or '-'}")
+    return "; ".join(parts)
+
+
 def width_table(outcomes: list[Outcome]) -> np.ndarray:
     """Median 90 % interval width per parameter, in % of the prior box (D,)."""
     space = ParameterSpace.t6()
@@ -207,6 +218,8 @@ def main(argv: list[str] | None = None) -> int:
             widths = width_table(outs)
             print("    median 90% width, % of box: " + ", ".join(
                 f"{n} {w:.0f}" for n, w in zip(space.names, widths)), flush=True)
+            print("    identified or weakly, per problem: " + claimed_names(outs, space.names, args.first_seed),
+                  flush=True)
     return 0
 
 

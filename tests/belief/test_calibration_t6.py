@@ -56,3 +56,13 @@ def test_foreign_scenarios_read_their_engines_recording(scenario: str, engine: s
     with pytest.raises(Asked):
         bench.problem_data(4, scenario)
     assert asked == [("perturbed", 4, engine)]
+
+
+def test_claimed_names_lists_each_problems_verdicts() -> None:
+    def outcome(verdicts: list[str]) -> bench.Outcome:
+        z = np.zeros(3)
+        return bench.Outcome(truth=z, lower=z, upper=z, verdict=verdicts)
+
+    line = bench.claimed_names([outcome(["identified", "not identified", "weakly identified"]),
+                                outcome(["not identified"] * 3)], ["a", "b", "c"], first_seed=7)
+    assert line == "7: a, c (weakly); 8: -"
