@@ -22,7 +22,8 @@ Per scenario and budget it prints: parameters flagged identified, how many of th
 hold θ* (target >= 90 %), the largest distance from θ* to an identified interval in interval
 widths (target <= 3), how many intervals of parameters called identified or weakly identified
 miss the best evaluated θ (target 0: P must not contradict its evaluations), and the median
-interval width per parameter in % of the prior box.
+interval width per parameter in % of the prior box, and per problem the parameters it called
+identified or weakly identified.
 
     .venv/bin/python benchmarks/calibration_t6.py --scenarios testbed1 testbed3 --problems 10 --budgets 60
     .venv/bin/python benchmarks/calibration_t6.py --scenarios mujoco1 --problems 10 --budgets 60 --first-seed 0
@@ -159,7 +160,8 @@ def misses_best(o: Outcome) -> list[int]:
 
 
 def claimed_names(outcomes: list[Outcome], names: Sequence[str], first_seed: int) -> str:
-    """``"seed: name (verdict), ..."`` per problem, ``-`` where nothing is identified or weakly."""
+    """``"seed: name, name (weakly); ..."``: per problem the parameters called identified, or weakly
+    identified, ``-`` where none is."""
     parts = []
     for k, o in enumerate(outcomes):
         said = [f"{n}{'' if v == 'identified' else ' (weakly)'}" for n, v in zip(names, o.verdict, strict=True)
