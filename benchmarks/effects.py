@@ -74,7 +74,7 @@ MIXES = {"mix": ("ground_slope", "actuator_delay"), "actuator+contact": ("rate_l
 PLACED = {"point_mass_elsewhere": PointMass(rod=3, position=-0.6)}
 #: testbed data set -> the catalog effects that model its hidden effects (a mix has two)
 TESTBED_TRUTH: dict[str, tuple[str, ...]] = {
-    "nominal": (), "slope": ("ground_slope",), "marker_offset": ("sensor_bias",), "drag": ("air_drag",),
+    "nominal": (), "slope": ("ground_slope",), "marker_offset": ("sensor_bias",), "drag": ("viscous_drag",),
     "actuator_delay": ("actuator_delay",), "hysteresis": ("cable_hysteresis",), "extra_mass": ("point_mass",),
     "ground_viscosity": ("ground_viscosity",), "slope+delay": ("ground_slope", "actuator_delay")}
 #: the testbed's effect field behind each catalog effect of a testbed mix (to switch it off)

@@ -17,8 +17,9 @@ search knew its true size. Per testbed data set and seed (flops version 2, 0.2 m
 Catalog effects in the testbed's terms (benchmarks/testbed/effects.py): ``slope`` -> ground_slope
 at the true floor normal; ``actuator_delay`` -> actuator_delay; ``extra_mass`` -> point_mass on
 the same rod at the same place; ``ground_viscosity`` -> ground_viscosity at the same coefficient;
-``marker_offset`` -> sensor_bias at the offset's z. Drag and hysteresis are left out: the
-testbed's laws (linear drag, softer unloading) have no true size in the catalog's.
+``marker_offset`` -> sensor_bias at the offset's z; ``drag`` -> viscous_drag (the testbed's law,
+linear in speed, outside the default catalog) at the same coefficient. Hysteresis is left out: the
+testbed's softer unloading has no true size in the catalog's law.
 
     .venv/bin/python benchmarks/effects_oracle.py --seeds 1                # seed 0, every data set
     .venv/bin/python benchmarks/effects_oracle.py --summarize benchmarks/results/effects-oracle.jsonl
@@ -42,9 +43,9 @@ from criticism.mismatch import MismatchConfig
 from criticism.search import polish
 from criticism.stage_journal import journalled_stage
 from physics import TrajectoryObjective, load_trajectory
-from physics.effects import ActuatorDelay, Effect, GroundSlope, GroundViscosity, PointMass, SensorBias
+from physics.effects import ActuatorDelay, Effect, GroundSlope, GroundViscosity, PointMass, SensorBias, ViscousDrag
 
-DATASETS = ("slope", "actuator_delay", "extra_mass", "ground_viscosity", "marker_offset")
+DATASETS = ("slope", "actuator_delay", "extra_mass", "ground_viscosity", "marker_offset", "drag")
 
 
 def true_effect(name: str, seed: int, truth: dict) -> tuple[Effect, dict[str, float]]:
@@ -65,6 +66,8 @@ def true_effect(name: str, seed: int, truth: dict) -> tuple[Effect, dict[str, fl
         return GroundViscosity(), {"ground_viscosity": truth["ground_viscosity"]}
     if name == "marker_offset":
         return SensorBias(), {"sensor_bias_z": truth["marker_offset"][2]}
+    if name == "drag":
+        return ViscousDrag(), {"viscous_drag": truth["drag"]}
     raise KeyError(f"no catalog truth for testbed data set {name!r}; choose from {DATASETS}.")
 
 

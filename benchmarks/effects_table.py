@@ -15,7 +15,8 @@ from physics.effects import EFFECT_TYPES, effect_from_config
 #: Size of each effect in the benchmark (SI): material next to 0.2 mm sensor noise, as the
 #: differences between two engines' SUPERballs are (an actuator reaching its target in 0.11 s,
 #: caps touching the ground at 31 mm instead of 60 mm).
-SIZES = {"ground_slope": {"slope_x": 0.08}, "air_drag": {"drag": 8.0}, "ground_viscosity": {"ground_viscosity": 150.0},
+SIZES = {"ground_slope": {"slope_x": 0.08}, "air_drag": {"drag": 8.0}, "viscous_drag": {"viscous_drag": 4.0},
+         "ground_viscosity": {"ground_viscosity": 150.0},
          "cable_hysteresis": {"hysteresis": 0.5}, "nonlinear_stiffness": {"stiffness_quadratic": 3.0},
          "actuator_delay": {"actuator_delay": 0.08}, "rate_limited_actuator": {"actuator_rate": 1.6},
          "sensor_bias": {"sensor_bias_z": 0.02}, "end_cap_radius": {"cap_radius_change": -0.029},
@@ -46,10 +47,12 @@ def catalog_equivalent(effect: str, truth: dict, row: dict | None = None) -> tup
     - air_drag: the testbed's rod ends feel -d v, the catalog's -c |v| v; the c closest in force
       over the speeds s of the rod ends in the row's two fit flops (least squares):
       c = d Σ s³ / Σ s⁴ (low = high).
-    - actuator_delay: the same law in both, the delay in seconds (low = high).
+    - actuator_delay, viscous_drag: the same law in both (delay [s], drag [N s/m]; low = high).
     """
     if effect == "actuator_delay":
         return truth["actuator_delay"], truth["actuator_delay"]
+    if effect == "viscous_drag":
+        return truth["drag"], truth["drag"]
     if effect == "cable_hysteresis":
         t6 = ParameterSpace.t6()
         k = t6.index("stiffnessActive")

@@ -14,12 +14,12 @@ from physics.effects.components import (
 )
 from physics.effects.contact import RollingResistance
 from physics.effects.fixed_anchors import FixedCableAnchors
-from physics.effects.forces import AirDrag, GroundViscosity
+from physics.effects.forces import AirDrag, GroundViscosity, ViscousDrag
 from physics.effects.sensing import SensorBias
 from physics.effects.world import CylinderCaps, EndCapRadius, GroundSlope, PointMass
 
 __all__ = ["Effect", "ForceTerm", "WrenchTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
            "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness",
            "RateLimitedActuation", "TensionLimitedActuation", "CableAnchors", "FixedCableAnchors",
-           "AirDrag", "GroundViscosity", "RollingResistance", "SensorBias", "EndCapRadius", "CylinderCaps",
+           "AirDrag", "ViscousDrag", "GroundViscosity", "RollingResistance", "SensorBias", "EndCapRadius", "CylinderCaps",
            "GroundSlope", "PointMass"]

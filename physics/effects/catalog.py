@@ -13,14 +13,14 @@ from physics.effects.components import (
 )
 from physics.effects.contact import RollingResistance
 from physics.effects.fixed_anchors import FixedCableAnchors
-from physics.effects.forces import AirDrag, GroundViscosity
+from physics.effects.forces import AirDrag, GroundViscosity, ViscousDrag
 from physics.effects.sensing import SensorBias
 from physics.effects.world import CylinderCaps, EndCapRadius, GroundSlope, PointMass
 from physics.errors import ParameterError
 
 __all__ = ["EFFECT_TYPES", "catalog", "effect_from_config"]
 
-_CATALOG = (GroundSlope, AirDrag, GroundViscosity, CableHysteresis, NonlinearStiffness, ActuatorDelay,
+_CATALOG = (GroundSlope, AirDrag, ViscousDrag, GroundViscosity, CableHysteresis, NonlinearStiffness, ActuatorDelay,
             RateLimitedActuation, SensorBias, EndCapRadius, PointMass)
 
 #: Every effect class, by name: the catalog's, then those criticism does not try by default (EncoderOffset;

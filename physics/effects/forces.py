@@ -1,4 +1,5 @@
-"""Effects that add forces each physics step: quadratic air drag and viscous ground friction.
+"""Effects that add forces each physics step: quadratic and viscous (linear) drag, viscous ground
+friction.
 
 Both act on the nodes (rod ends): a rod's drag is lumped on its two ends."""
 from __future__ import annotations
@@ -12,7 +13,7 @@ from physics.effects.base import Effect, ModelSetup
 from physics.errors import ParameterError
 from physics.parameters import Parameter
 
-__all__ = ["AirDrag", "GroundViscosity", "drag_forces", "viscous_ground_forces"]
+__all__ = ["AirDrag", "ViscousDrag", "GroundViscosity", "drag_forces", "viscous_drag_forces", "viscous_ground_forces"]
 
 
 @njit(cache=True)
@@ -24,6 +25,14 @@ def drag_forces(velocities: np.ndarray, coefficient: float, out: np.ndarray) -> 
         out[n, 0] -= coefficient * speed * vx
         out[n, 1] -= coefficient * speed * vy
         out[n, 2] -= coefficient * speed * vz
+
+
+@njit(cache=True)
+def viscous_drag_forces(velocities: np.ndarray, coefficient: float, out: np.ndarray) -> None:
+    """out[n] += -c v_n for the 12 nodes (linear drag, c [N s/m])."""
+    for n in range(velocities.shape[0]):
+        for k in range(3):
+            out[n, k] -= coefficient * velocities[n, k]
 
 
 @njit(cache=True)
@@ -49,6 +58,26 @@ class AirDrag(Effect):
         c = float(values["drag"])
         if c > 0:
             setup.force_terms.append(lambda p, v, out: drag_forces(v, c, out))
+
+
+class ViscousDrag(Effect):
+    """Linear drag on the rods, lumped on their ends: F_n = -viscous_drag v_n [N].
+
+    The law of slow flow around a rod and of the velocity damping many engines apply to every
+    body (a per-step factor (1 - d)^dt on v is, to first order, this force with c = m d / 2 per
+    end for a rod of mass m). :class:`AirDrag` is the quadratic law of fast flow."""
+
+    name = "viscous_drag"
+    description = "linear (viscous) drag on the rods"
+
+    def parameters(self) -> tuple[Parameter, ...]:
+        return (Parameter("viscous_drag", "N*s/m", 0.0, 0.0, 20.0, "linear drag coefficient per rod end",
+                          strict=False),)
+
+    def apply(self, setup: ModelSetup, values: Mapping[str, float], params: Mapping[str, float]) -> None:
+        c = float(values["viscous_drag"])
+        if c > 0:
+            setup.force_terms.append(lambda p, v, out: viscous_drag_forces(v, c, out))
 
 
 class GroundViscosity(Effect):

@@ -8,13 +8,14 @@ import pytest
 from physics import FlopController, ModelOptions, ParameterError, T6Model, TrajectoryObjective, simulate
 from physics.effects import (
     EFFECT_TYPES, ActuatorDelay, AirDrag, CableHysteresis, CylinderCaps, EndCapRadius, GroundSlope, NonlinearStiffness,
-    PointMass, RateLimitedActuation, SensorBias, catalog, effect_from_config, model_space,
+    PointMass, RateLimitedActuation, SensorBias, ViscousDrag, catalog, effect_from_config, model_space,
 )
 from physics.effects.world import (
     EVIDENT_TILT, MEASURED_CONTACT_WIDTH, MEASURED_SLOPE_WIDTH, contact_excess, resting_height, resting_tilt,
     slope_normal,
 )
 from physics.ground import ground_plane
+from physics.scaling import robot_mass
 
 FREE = ModelOptions(gravity=0.0, ground=False, spin_damping=0.0)
 
@@ -47,7 +48,7 @@ def test_model_space_appends_effect_parameters_and_refuses_clashes():
     assert effect_from_config(PointMass(rod=3).config()) == PointMass(rod=3)
     with pytest.raises(ParameterError, match="unknown effect"):
         effect_from_config({"effect": "magic"})
-    assert [e.name for e in catalog()] == list(EFFECT_TYPES)[:10] and "encoder_offset" not in [e.name for e in catalog()]
+    assert [e.name for e in catalog()] == list(EFFECT_TYPES)[:11] and "encoder_offset" not in [e.name for e in catalog()]
 
 
 @pytest.mark.parametrize("effect", [t() for t in EFFECT_TYPES.values() if t.switchable], ids=lambda e: e.name)
@@ -66,8 +67,9 @@ def test_nonlinear_cables_conserve_energy_with_their_cubic_potential():
     assert np.abs(totals - totals[0]).max() / totals[0] < 0.01
 
 
-@pytest.mark.parametrize("effect, values", [(CableHysteresis(), {"hysteresis": 0.5}), (AirDrag(), {"drag": 5.0})],
-                         ids=["hysteresis", "drag"])
+@pytest.mark.parametrize("effect, values", [(CableHysteresis(), {"hysteresis": 0.5}), (AirDrag(), {"drag": 5.0}),
+                                           (ViscousDrag(), {"viscous_drag": 3.0})],
+                         ids=["hysteresis", "drag", "viscous_drag"])
 def test_hysteresis_and_drag_dissipate(effect, values):
     """Hysteresis stores path-dependent energy (the ½ k s² of energy() is not its potential), so
     only the net loss is asserted; drag loses energy at every step."""
@@ -75,10 +77,30 @@ def test_hysteresis_and_drag_dissipate(effect, values):
     kick = model.energy()["kinetic"]
     totals = _energy_trace(model)
     assert totals[0] - totals[-1] > 0.05 * kick               # loses a part of the kick
-    if effect.name == "air_drag":                             # drag, a force against the motion, never adds
+    if effect.name in ("air_drag", "viscous_drag"):           # drag, a force against the motion, never adds
         assert np.all(np.diff(totals) < 1e-3 * kick)
     free = _energy_trace(_kicked([effect]))                  # at the off value it conserves it
     assert np.abs(free - free[0]).max() < 0.01 * free[0]
+
+
+def test_viscous_drag_slows_the_centre_of_mass_exponentially():
+    """With F_n = -c v_n on the 12 ends of six equal rods, the total momentum obeys dP/dt =
+    -2c Σ_r v_r = -(12 c / M) P whatever the cables do: v_com(t) = v_com(0) exp(-12 c t / M)."""
+    effects, c = [ViscousDrag()], 3.0
+    model = _kicked(effects, viscous_drag=c)
+    mass = float(robot_mass(model_space(effects), _theta(effects, viscous_drag=c)))
+
+    def com_velocity() -> np.ndarray:
+        start = model.com()
+        model.step(None, n=1)
+        return (model.com() - start) / FREE.dt
+
+    v0 = com_velocity()
+    model.step(None, n=499)
+    v1 = com_velocity()
+    expected = v0 * np.exp(-12 * c * 0.5 / mass)
+    assert np.linalg.norm(v0) > 0.01 and np.linalg.norm(v0 - expected) > 0.1 * np.linalg.norm(v0)
+    np.testing.assert_allclose(v1, expected, rtol=0.01, atol=1e-3 * np.linalg.norm(v0))
 
 
 def test_a_sloped_floor_keeps_gravity_vertical_and_tilts_the_ground_plane():

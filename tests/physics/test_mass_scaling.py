@@ -15,13 +15,14 @@ from physics.effects import (
     PointMass,
     RollingResistance,
     TensionLimitedActuation,
+    ViscousDrag,
     model_space,
 )
 from physics.geometry import rod_mass_properties
 from physics.scaling import mass_dimension, mass_exponents, robot_mass, scale_masses, scale_options, weighed
 
 LAM = 1.3
-SIZES = {"drag": 5.0, "point_mass": 1.0, "hysteresis": 0.3, "rolling_resistance": 0.3, "anchor_offset": 0.05}
+SIZES = {"drag": 5.0, "viscous_drag": 4.0, "point_mass": 1.0, "hysteresis": 0.3, "rolling_resistance": 0.3, "anchor_offset": 0.05}
 
 
 def test_units_have_their_mass_dimension() -> None:
@@ -48,7 +49,7 @@ def _nodes(effects: tuple, theta: np.ndarray, options: ModelOptions) -> np.ndarr
 
 
 @pytest.mark.parametrize("effects", [(), (TensionLimitedActuation(), RollingResistance(), CableAnchors(), AirDrag(),
-                                          CableHysteresis(), PointMass())], ids=["T6", "augmented"])
+                                          ViscousDrag(), CableHysteresis(), PointMass())], ids=["T6", "augmented"])
 def test_scaling_every_mass_and_force_leaves_the_motion_unchanged(effects: tuple) -> None:
     space = model_space(effects)
     theta = space.nominal.copy()

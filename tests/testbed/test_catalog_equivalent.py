@@ -10,6 +10,7 @@ from testbed.robot import TestbedRobot
 
 from physics import ParameterSpace
 from physics.cables import cable_tension
+from physics.effects.forces import viscous_drag_forces
 
 
 def test_the_testbeds_hysteresis_is_the_catalogs_at_the_equivalent_size() -> None:
@@ -30,6 +31,30 @@ def test_the_testbeds_hysteresis_is_the_catalogs_at_the_equivalent_size() -> Non
             np.testing.assert_allclose(testbed, catalog, rtol=1e-9)
             if rate > 0:
                 np.testing.assert_allclose(testbed, cable_tension(0.04, rate, k_lo, robot.c, 0.0, low), rtol=1e-9)
+    finally:
+        robot.close()
+
+
+def test_the_testbeds_drag_is_the_catalogs_viscous_drag_at_the_same_coefficient() -> None:
+    """The testbed's rod ends feel -d v (its own code, summed into each rod's force and torque);
+    the catalog's ViscousDrag at c = d gives the same wrench on every rod of a moving robot."""
+    robot = TestbedRobot(NOMINAL, Effects(drag=3.0))
+    try:
+        for _ in range(150):                               # falls onto the ground and rocks: rods move and spin
+            robot.step(robot.rest)
+        poses = robot._poses()
+        net, torque = np.zeros((6, 3)), np.zeros((6, 3))
+        robot._node_forces(poses, net, torque)
+        nodes, velocities = robot.nodes(poses), robot.node_velocities(poses)
+        c = catalog_equivalent("viscous_drag", {"drag": 3.0})
+        assert c == (3.0, 3.0)
+        forces = np.zeros((12, 3))
+        viscous_drag_forces(velocities, c[0], forces)
+        rods = np.arange(12) // 2
+        assert np.abs(velocities).max() > 0.05
+        np.testing.assert_allclose(net, forces.reshape(6, 2, 3).sum(axis=1), rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(torque, np.cross(nodes - poses[2][rods], forces).reshape(6, 2, 3).sum(axis=1),
+                                   rtol=1e-9, atol=1e-12)
     finally:
         robot.close()
 
