@@ -21,5 +21,5 @@ from physics.effects.world import CylinderCaps, EndCapRadius, GroundSlope, Point
 __all__ = ["Effect", "ForceTerm", "WrenchTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
            "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness",
            "RateLimitedActuation", "TensionLimitedActuation", "CableAnchors", "FixedCableAnchors",
-           "AirDrag", "ViscousDrag", "GroundViscosity", "RollingResistance", "SensorBias", "EndCapRadius", "CylinderCaps",
-           "GroundSlope", "PointMass"]
+           "AirDrag", "ViscousDrag", "GroundViscosity", "RollingResistance", "SensorBias", "EndCapRadius",
+           "CylinderCaps", "GroundSlope", "PointMass"]
