@@ -81,3 +81,15 @@ def test_the_tally_counts_intervals_and_claims_that_miss(capsys) -> None:
     out = capsys.readouterr().out
     assert "intervals that meet the catalog-law truth: 2 of 4; claims (identified) that miss it: 1 of 2" in out
     assert catalog_equivalent("actuator_delay", {"actuator_delay": 0.05}) == (0.05, 0.05)
+
+
+def test_either_drag_law_counts_as_the_drag_ranked_first_and_found(capsys) -> None:
+    """The testbed's drag is linear (viscous_drag); the quadratic air_drag ranked first and found
+    counts as the cause found, a ground slope does not, and its size is shown in both laws."""
+    row = {"scenario": "drag", "seed": 0, "held_out": "heading", "truth": ["viscous_drag"], "top": "air_drag",
+           "top_values": {"drag": 1.5}, "true_values": {"drag": 3.0}, "found": ["air_drag"], "top_explained": 0.47,
+           "held_before": 1.0, "held_after": 0.53}
+    wrong = {**row, "seed": 1, "top": "ground_slope", "found": ["ground_slope"], "top_values": {"slope_x": 0.01}}
+    summarize([row, wrong])
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("drag "))
+    assert line.split()[1:5] == ["2", "1", "1", "1"]             # seeds, top=true, named, found
