@@ -48,7 +48,8 @@ def test_model_space_appends_effect_parameters_and_refuses_clashes():
     assert effect_from_config(PointMass(rod=3).config()) == PointMass(rod=3)
     with pytest.raises(ParameterError, match="unknown effect"):
         effect_from_config({"effect": "magic"})
-    assert [e.name for e in catalog()] == list(EFFECT_TYPES)[:11] and "encoder_offset" not in [e.name for e in catalog()]
+    names = [e.name for e in catalog()]
+    assert names == list(EFFECT_TYPES)[:11] and "encoder_offset" not in names
 
 
 @pytest.mark.parametrize("effect", [t() for t in EFFECT_TYPES.values() if t.switchable], ids=lambda e: e.name)

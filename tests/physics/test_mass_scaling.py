@@ -22,7 +22,8 @@ from physics.geometry import rod_mass_properties
 from physics.scaling import mass_dimension, mass_exponents, robot_mass, scale_masses, scale_options, weighed
 
 LAM = 1.3
-SIZES = {"drag": 5.0, "viscous_drag": 4.0, "point_mass": 1.0, "hysteresis": 0.3, "rolling_resistance": 0.3, "anchor_offset": 0.05}
+SIZES = {"drag": 5.0, "viscous_drag": 4.0, "point_mass": 1.0,
+         "hysteresis": 0.3, "rolling_resistance": 0.3, "anchor_offset": 0.05}
 
 
 def test_units_have_their_mass_dimension() -> None:
