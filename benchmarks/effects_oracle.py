@@ -18,8 +18,8 @@ Catalog effects in the testbed's terms (benchmarks/testbed/effects.py): ``slope`
 at the true floor normal; ``actuator_delay`` -> actuator_delay; ``extra_mass`` -> point_mass on
 the same rod at the same place; ``ground_viscosity`` -> ground_viscosity at the same coefficient;
 ``marker_offset`` -> sensor_bias at the offset's z; ``drag`` -> viscous_drag (the testbed's law,
-linear in speed, outside the default catalog) at the same coefficient. Hysteresis is left out: the
-testbed's softer unloading has no true size in the catalog's law.
+linear in speed) at the same coefficient. Hysteresis is left out: the testbed's softer unloading
+has no true size in the catalog's law.
 
     .venv/bin/python benchmarks/effects_oracle.py --seeds 1                # seed 0, every data set
     .venv/bin/python benchmarks/effects_oracle.py --summarize benchmarks/results/effects-oracle.jsonl

@@ -1,7 +1,7 @@
 """Effects that add forces each physics step: quadratic and viscous (linear) drag, viscous ground
 friction.
 
-Both act on the nodes (rod ends): a rod's drag is lumped on its two ends."""
+All act on the nodes (rod ends): a rod's drag is lumped on its two ends."""
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -64,8 +64,8 @@ class ViscousDrag(Effect):
     """Linear drag on the rods, lumped on their ends: F_n = -viscous_drag v_n [N].
 
     The law of slow flow around a rod and of the velocity damping many engines apply to every
-    body (a per-step factor (1 - d)^dt on v is, to first order, this force with c = m d / 2 per
-    end for a rod of mass m). :class:`AirDrag` is the quadratic law of fast flow."""
+    body (a per-step factor (1 - d)^dt on v is, for small d, this force with c = m d / 2 per end
+    of a rod of mass m). :class:`AirDrag` is the quadratic law of fast flow."""
 
     name = "viscous_drag"
     description = "linear (viscous) drag on the rods"
