@@ -1,0 +1,75 @@
+"""How far criticism's joint refinement of one effect gets, round by round, on a testbed data set.
+
+Criticism (criticism.search) screens an effect with the model's parameters held, then refines
+(θ, η) together by one bounded least-squares run of ``CriticismConfig.local`` (at most 12 trial
+points). This script repeats that run ``--rounds`` times from where the last one stopped and
+prints, after each, the effect's size and the fit and held-out errors E_F, E_H, so one sees
+whether the single run the search makes has converged. Per data set and seed (flops version 2,
+0.2 mm noise; fit on ``flop_0`` and ``flop_1``, held out ``heldout_0``, as diagnose splits them):
+
+1. the mismatch stage (criticism.mismatch, journalled under ``--journals``) augments the T6 and
+   the base is the augmented model re-tuned on the fit flops (criticism.polish), as in
+   benchmarks/effects_oracle.py;
+2. the effect is screened (criticism.screening.fit_effect, θ held), then refined jointly
+   ``--rounds`` times.
+
+    .venv/bin/python benchmarks/joint_rounds.py --dataset drag --seed 0 --effect viscous_drag --rounds 3
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from criticism import CriticismConfig
+from criticism.diagnose import split_masks
+from criticism.mismatch import MismatchConfig
+from criticism.screening import effect_start, fit_effect
+from criticism.search import polish
+from criticism.stage_journal import journalled_stage
+from physics import TrajectoryObjective, load_trajectory
+from physics.effects import EFFECT_TYPES
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dataset", default="drag")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--effect", default="viscous_drag", choices=sorted(EFFECT_TYPES))
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--journals", default=".cache/oracle", help="the stage's journal folder per data set and seed "
+                    "(benchmarks/effects_oracle.py writes the same)")
+    args = ap.parse_args(argv)
+    from testbed.datasets import cached_dataset
+    files = cached_dataset(args.dataset, args.seed, noise=0.0002, version=2)
+    data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
+    full = TrajectoryObjective(data, horizon=25, loss="squared", windows=3)
+    start = time.perf_counter()
+    try:
+        fit, held = split_masks(full.segments, [2])
+        stage = journalled_stage(full, fit, [2], config=MismatchConfig(),
+                                 journal_dir=Path(args.journals) / f"{args.dataset}-s{args.seed}", progress=False)
+        model, config = full.with_effects(stage.effects), CriticismConfig()
+        base = polish(model, stage.theta, fit, config)
+        print(f"base: E_F {base.parts[fit].sum():.4f}, E_H {base.parts[held].sum():.4f}", flush=True)
+        extended, theta, indices = effect_start(model, base.theta, EFFECT_TYPES[args.effect]())
+        theta, parts = fit_effect(extended, theta, indices, fit, grid=config.grid, refine=config.refine)
+        _report("screened", extended.space.names, theta, indices, parts, fit, held, start)
+        for k in range(args.rounds):
+            joint = polish(extended, theta, fit, config)
+            theta = joint.theta
+            _report(f"joint round {k + 1}", extended.space.names, theta, indices, joint.parts, fit, held, start)
+    finally:
+        full.close()
+    return 0
+
+
+def _report(label, names, theta, indices, parts, fit, held, start) -> None:
+    sizes = ", ".join(f"{names[j]}={theta[j]:.4g}" for j in indices)
+    print(f"{label}: {sizes}; E_F {parts[fit].sum():.4f}, E_H {parts[held].sum():.4f} "
+          f"({time.perf_counter() - start:.0f} s)", flush=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
