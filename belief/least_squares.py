@@ -31,18 +31,33 @@ __all__ = ["LeastSquaresConfig", "LocalFit", "refine", "StepConfig", "DEFAULT_ST
 
 @dataclass(frozen=True)
 class LeastSquaresConfig:
-    """evaluations: most residual evaluations of trial points (each Jacobian costs k more, in one
-    batch); step: the finite-difference step h in the unit box; tolerance: stop when a step
-    lowers E_F by less than this fraction (scipy's ftol)."""
+    """evaluations: most residual evaluations of trial points per run (each Jacobian costs k more,
+    in one batch); step: the finite-difference step h in the unit box; tolerance: stop when a step
+    lowers E_F by less than this fraction (scipy's ftol); rounds: most runs, each from the best
+    point of the last (a fresh trust region); converged: no further run once a run lowered E_F by
+    less than this fraction of its start."""
 
     evaluations: int = 12
     step: float = 0.01
     tolerance: float = 1e-3
+    rounds: int = 1
+    converged: float = 0.01
 
     def __post_init__(self) -> None:
         if self.evaluations < 1 or not (0 < self.step < 0.5) or not (0 < self.tolerance < 1):
             raise BeliefError(f"LeastSquaresConfig needs evaluations >= 1, 0 < step < 0.5 and 0 < tolerance < 1, "
                               f"got {self.evaluations}, {self.step}, {self.tolerance}.")
+        if self.rounds < 1 or not (0 <= self.converged < 1):
+            raise BeliefError(f"LeastSquaresConfig needs rounds >= 1 and 0 <= converged < 1, got {self.rounds}, "
+                              f"{self.converged}.")
+
+    def record(self) -> dict[str, float | int]:
+        """The settings that decide the result, for a journal's fingerprint. One round is the plain run,
+        and ``converged`` acts only between rounds: with one round both are left out."""
+        settings = vars(self).copy()
+        if self.rounds == 1:
+            del settings["rounds"], settings["converged"]
+        return settings
 
 
 @dataclass(frozen=True)
@@ -124,7 +139,8 @@ class _Problem:
 def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask: np.ndarray | Sequence[bool],
            config: LeastSquaresConfig = LeastSquaresConfig()) -> LocalFit:
     """Refine θ[indices] (θ (D,)) on the segments ``mask`` (S,) by bounded least squares (module
-    docstring) from the objective's ``residuals_batch``. Raises BeliefError if the simulation at θ
+    docstring) from the objective's ``residuals_batch``: up to ``config.rounds`` runs, the next
+    while the last lowered E_F by more than ``config.converged`` of its start. Raises BeliefError if the simulation at θ
     itself fails, NoResidualsError if the objective has no residuals."""
     theta = np.asarray(theta, float).copy()
     mask = np.asarray(mask, bool)
@@ -134,11 +150,15 @@ def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask
     if not index:
         raise BeliefError("refine needs at least one parameter index.")
     problem = _Problem(objective, theta, index, mask, config.step)
-    start = np.clip(problem.unit(theta[index]), 0.0, 1.0)
-    start_error = float((problem.fun(start) ** 2).sum())
-    scipy_least_squares(problem.fun, start, jac=problem.jac, bounds=(0.0, 1.0), method="trf", x_scale=1.0,
-                        ftol=config.tolerance, xtol=1e-4, gtol=1e-8, max_nfev=config.evaluations)
-    u, residuals = problem.best()
+    u = np.clip(problem.unit(theta[index]), 0.0, 1.0)
+    start_error = error = float((problem.fun(u) ** 2).sum())
+    for _ in range(config.rounds):
+        scipy_least_squares(problem.fun, u, jac=problem.jac, bounds=(0.0, 1.0), method="trf", x_scale=1.0,
+                            ftol=config.tolerance, xtol=1e-4, gtol=1e-8, max_nfev=config.evaluations)
+        u, residuals = problem.best()
+        last, error = error, float((problem.fun(u) ** 2).sum())
+        if last - error <= config.converged * last:
+            break
     theta[index] = problem.thetas(u[None])[0, index]
     parts = np.array([np.nansum(np.asarray(r) ** 2) for r in residuals])
     return LocalFit(theta, parts, float(parts[mask].sum()), start_error, problem.evaluations, residuals)

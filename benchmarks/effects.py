@@ -64,7 +64,8 @@ import xarray as xr
 from effects_table import SIZES, print_rows, summarize
 from jsonl_rows import read_rows
 
-from criticism import DiagnoseConfig, diagnose
+from belief.least_squares import LeastSquaresConfig
+from criticism import CriticismConfig, DiagnoseConfig, diagnose
 from criticism.mismatch import MismatchConfig
 from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, model_space
@@ -169,9 +170,10 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flo
 
 def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
             mismatch: bool = False, flops_version: int = 1, read_contact: bool = False,
-            journals: Path | None = None) -> dict:
+            journals: Path | None = None, rounds: int = 1) -> dict:
     """The row of one scenario and seed; diagnose journals its stage and evaluations in a folder of
-    ``journals`` named after the run (None: not journalled)."""
+    ``journals`` named after the run (None: not journalled). ``rounds``: of criticism's least-squares
+    refinements (belief.least_squares.LeastSquaresConfig.rounds)."""
     run = (f"{source}-{name}-seed{seed}-{held_out}-b{budget}-v{flops_version}{'-mismatch' if mismatch else ''}"
            f"{'-contact' if read_contact else ''}")
     folder = None if journals is None else journals / run
@@ -179,27 +181,29 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
         data, truth_names, true_values = testbed_data(name, seed, flops_version, FOREIGN[source])
         row = diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
-                           passes=max(1, len(truth_names)), read_contact=read_contact, journal_dir=folder)
+                           passes=max(1, len(truth_names)), read_contact=read_contact, journal_dir=folder,
+                           rounds=rounds)
         return {**row, "flops_version": flops_version, **({"engine": "mujoco"} if source == "mujoco" else {})}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
     row = diagnose_row(name, seed, budget, data, [e.name for e in effects],
                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
-                       mismatch=mismatch, read_contact=read_contact, journal_dir=folder)
+                       mismatch=mismatch, read_contact=read_contact, journal_dir=folder, rounds=rounds)
     return {**row, "true_configs": [e.config() for e in effects]}
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
                  held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None,
-                 read_contact: bool = False, journal_dir: Path | None = None) -> dict:
+                 read_contact: bool = False, journal_dir: Path | None = None, rounds: int = 1) -> dict:
     """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``, the
     contact read from the flops first if ``read_contact``) in ``passes`` passes (default: 2 for a
     mix, else 1); the benchmark's row (JSON-ready)."""
     passes = passes or (2 if name in MIXES else 1)
     start = time.perf_counter()
     config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None,
-                            read_contact=read_contact)
+                            read_contact=read_contact,
+                            criticism=CriticismConfig(local=LeastSquaresConfig(rounds=rounds)))
     d = diagnose(data, held_out=[2], config=config, progress=False, journal_dir=journal_dir)
     first = d.passes[0].criticism
     top = first.ranking[0] if first.ranking else None
@@ -209,7 +213,8 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "top_placements": top.placements if top else None,
            "floor": first.floor.name,
            "floor_explained": first.floor.explained, "floor_evidence": first.floor.evidence,
-           "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None, "n_eff_fit": first.n_eff_fit,
+           "n_eff_held": first.n_eff_held, "top_n_eff": (top.n_fit + top.n_held) if top else None,
+           "n_eff_fit": first.n_eff_fit,
            "found": d.found, "measured": [e.name for e in d.measured], "alternatives": first.alternatives,
            "replication": first.replication,
            "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error}
@@ -220,7 +225,8 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "estimates": d.passes[0].estimates(),
            "stage": None if d.mismatch is None else {"kept": [e.name for e in d.mismatch.effects],
                                                      "ratios": d.mismatch.ratios()},
-           "read_contact": read_contact, "contact": None if d.contact is None else d.contact.as_dict(),
+           "read_contact": read_contact, "rounds": rounds,
+           "contact": None if d.contact is None else d.contact.as_dict(),
            "revisits": [p.revisit.as_dict() for p in d.passes if p.revisit is not None]}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
@@ -229,9 +235,10 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
 
 def _key(row: dict) -> tuple:
     """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact
-    read, engine)."""
-    return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"), row.get("flops_version", 1),
-            row.get("read_contact", False), row.get("engine", "bullet"))
+    read, engine, least-squares rounds)."""
+    return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"),
+            row.get("flops_version", 1), row.get("read_contact", False), row.get("engine", "bullet"),
+            row.get("rounds", 1))
 
 
 def latest_rows(rows: list[dict]) -> list[dict]:
@@ -266,6 +273,8 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--journals", default=None, metavar="DIR",
                     help="journal each run's diagnosis under DIR (a rerun with another criticism reuses its mismatch "
                          "stage and first identification; a journal of another problem is an error)")
+    ap.add_argument("--rounds", type=int, default=1, help="most runs of each of criticism's least-squares "
+                    "refinements (belief.least_squares; default 1)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     return ap
@@ -293,14 +302,15 @@ def main(argv: list[str] | None = None) -> int:
     rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds
             and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget
             and r.get("flops_version", 1) == args.flops_version and r.get("read_contact", False) == args.read_contact
-            and r.get("engine", "bullet") == FOREIGN.get(args.source, "bullet")]
+            and r.get("engine", "bullet") == FOREIGN.get(args.source, "bullet") and r.get("rounds", 1) == args.rounds]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
             if (name, seed, args.held_out, args.budget, args.flops_version, args.read_contact,
-                    FOREIGN.get(args.source, "bullet")) in done:
+                    FOREIGN.get(args.source, "bullet"), args.rounds) in done:
                 continue
             row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version,
-                             args.read_contact, Path(args.journals) if args.journals else None), "budget": args.budget}
+                             args.read_contact, Path(args.journals) if args.journals else None, args.rounds),
+                   "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")

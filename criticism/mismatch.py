@@ -89,7 +89,7 @@ class MismatchConfig:
     def record(self) -> dict[str, Any]:
         """The settings as a JSON-able dict (the components by their configs)."""
         return {"components": [c.config() for c in self.components], "min_gain": self.min_gain,
-                "rounds": self.rounds, "drift_time": self.drift_time, "local": vars(self.local),
+                "rounds": self.rounds, "drift_time": self.drift_time, "local": self.local.record(),
                 "bound_tolerance": self.bound_tolerance, "hold_measured": self.hold_measured,
                 **({"null_trial": True} if self.null_trial else {})}
 

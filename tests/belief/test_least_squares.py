@@ -70,6 +70,38 @@ def test_refine_never_rises_and_steps_away_from_divergence():
     assert held.theta[0] == pytest.approx(1.2, rel=0.01)
 
 
+class Valley(Linear):
+    """Rosenbrock's valley as residuals r = (10 (θ1 - θ0²), 1 - θ0) in [-2, 2]²: minimum 0 at (1, 1),
+    reached along a curved ridge that a few trust-region steps do not follow to its end."""
+
+    def __init__(self):
+        super().__init__(np.zeros((2, 2)), np.zeros(2), [-2.0, -2.0], [2.0, 2.0])
+
+    def residuals(self, theta):
+        x, y = np.asarray(theta, float)
+        return [np.array([[10.0 * (y - x * x)]]), np.array([[1.0 - x]])]
+
+
+def test_further_rounds_go_on_from_the_best_point_and_stop_once_a_round_gains_little():
+    objective, start = Valley(), np.array([-1.2, 1.0])
+    one = refine(objective, start, range(2), [True, True], LeastSquaresConfig(evaluations=4))
+    again = refine(objective, one.theta, range(2), [True, True], LeastSquaresConfig(evaluations=4))
+    two = refine(objective, start, range(2), [True, True], LeastSquaresConfig(evaluations=4, rounds=2, converged=0.0))
+    assert two.error == pytest.approx(again.error, rel=1e-9) and two.error < one.error
+    many = refine(objective, start, range(2), [True, True], LeastSquaresConfig(evaluations=4, rounds=40))
+    assert many.error < 1e-3 * one.error and np.allclose(many.theta, 1.0, atol=0.05)
+    linear, _ = _problem(0)
+    settled = [refine(linear, np.full(4, 0.5), range(4), [True, True], LeastSquaresConfig(evaluations=20, rounds=r))
+               for r in (2, 6)]
+    assert settled[0].evaluations == settled[1].evaluations     # the second round gains nothing: no third
+
+
+def test_a_journal_records_the_rounds_only_when_there_are_several():
+    assert set(LeastSquaresConfig().record()) == {"evaluations", "step", "tolerance"}
+    assert LeastSquaresConfig(rounds=3, converged=0.02).record()["converged"] == 0.02
+    assert LeastSquaresConfig(rounds=3).record() != LeastSquaresConfig(rounds=4).record()
+
+
 def test_refine_refuses_a_failing_start_and_bad_settings():
     J, S = generate_push_data([1.0, 0.5], n=6)
     objective = PushObjective(J, S, fail_above=1.3)
@@ -79,6 +111,8 @@ def test_refine_refuses_a_failing_start_and_bad_settings():
         refine(objective, np.array([1.0, 0.5]), [0], [False, False])
     with pytest.raises(BeliefError, match="evaluations"):
         LeastSquaresConfig(evaluations=0)
+    with pytest.raises(BeliefError, match="rounds"):
+        LeastSquaresConfig(rounds=0)
 
 
 def test_one_gauss_newton_step_solves_a_linear_problem_and_gives_its_laplace_std():
