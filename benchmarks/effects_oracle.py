@@ -32,14 +32,16 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from jsonl_rows import read_rows
 
+from belief.least_squares import LocalFit
 from criticism import CriticismConfig
 from criticism.diagnose import split_masks
-from criticism.mismatch import MismatchConfig
+from criticism.mismatch import MismatchConfig, MismatchReport
 from criticism.search import polish
 from criticism.stage_journal import journalled_stage
 from physics import TrajectoryObjective, load_trajectory
@@ -71,34 +73,59 @@ def true_effect(name: str, seed: int, truth: dict) -> tuple[Effect, dict[str, fl
     raise KeyError(f"no catalog truth for testbed data set {name!r}; choose from {DATASETS}.")
 
 
-def run_one(name: str, seed: int, journals: Path, config: CriticismConfig) -> dict:
-    """The row of one data set and seed (module docstring)."""
+@dataclass
+class Staged:
+    """A testbed data set after the mismatch stage: the objective over its three flops with the fit
+    and held-out masks (S,), the stage, the augmented model, its base (re-tuned on the fit flops
+    from the stage's θ) and the testbed's true effect sizes."""
+
+    full: TrajectoryObjective
+    fit: np.ndarray
+    held: np.ndarray
+    stage: MismatchReport
+    model: TrajectoryObjective
+    base: LocalFit
+    truth: dict
+
+    def errors(self, parts: np.ndarray) -> tuple[float, float]:
+        """E_F, E_H of per-segment errors ``parts`` (S,)."""
+        return float(parts[self.fit].sum()), float(parts[self.held].sum())
+
+
+def staged(name: str, seed: int, journals: Path, config: CriticismConfig) -> Staged:
+    """Steps 1 and 2 of the module docstring for data set ``name`` and ``seed``, the stage journalled
+    in ``journals``/name-sSEED. The caller closes ``full``."""
     from testbed.datasets import cached_dataset
     files = cached_dataset(name, seed, noise=0.0002, version=2)
     truth = json.loads((files["flop_0"].parent / "truth.json").read_text())["effects"]
     data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
-    start = time.perf_counter()
     full = TrajectoryObjective(data, horizon=25, loss="squared", windows=3)
     try:
         fit, held = split_masks(full.segments, [2])
         stage = journalled_stage(full, fit, [2], config=MismatchConfig(), journal_dir=journals / f"{name}-s{seed}",
                                  progress=False)
         model = full.with_effects(stage.effects)
-        base = polish(model, stage.theta, fit, config)
-        effect, values = true_effect(name, seed, truth)
-        extended = model.with_effects(tuple(stage.effects) + (effect,))
-        at_truth = np.r_[base.theta, [values[p.name] for p in effect.parameters()]]
-        D = model.space.dim
-        held_size = polish(extended, at_truth, fit, config, indices=range(D))
-        free = polish(extended, held_size.theta, fit, config)
-    finally:
+        return Staged(full, fit, held, stage, model, polish(model, stage.theta, fit, config), truth)
+    except BaseException:
         full.close()
+        raise
 
-    def errors(parts: np.ndarray) -> tuple[float, float]:
-        return float(parts[fit].sum()), float(parts[held].sum())
 
-    (bf, bh), (tf, th), (ff, fh) = errors(base.parts), errors(held_size.parts), errors(free.parts)
-    return {"dataset": name, "seed": seed, "kept": [e.name for e in stage.effects], "truth": values,
+def run_one(name: str, seed: int, journals: Path, config: CriticismConfig) -> dict:
+    """The row of one data set and seed (module docstring)."""
+    start = time.perf_counter()
+    s = staged(name, seed, journals, config)
+    try:
+        effect, values = true_effect(name, seed, s.truth)
+        extended = s.model.with_effects(tuple(s.stage.effects) + (effect,))
+        at_truth = np.r_[s.base.theta, [values[p.name] for p in effect.parameters()]]
+        D = s.model.space.dim
+        held_size = polish(extended, at_truth, s.fit, config, indices=range(D))
+        free = polish(extended, held_size.theta, s.fit, config)
+    finally:
+        s.full.close()
+    (bf, bh), (tf, th), (ff, fh) = s.errors(s.base.parts), s.errors(held_size.parts), s.errors(free.parts)
+    return {"dataset": name, "seed": seed, "kept": [e.name for e in s.stage.effects], "truth": values,
             "base_fit": bf, "base_held": bh, "true_fit": tf, "true_held": th, "free_fit": ff, "free_held": fh,
             "explained_true": 1 - th / bh, "explained_free": 1 - fh / bh, "fit_gain_true": 1 - tf / bf,
             "free_values": {n: float(v) for n, v in zip(extended.space.names[D:], free.theta[D:], strict=True)},

@@ -22,13 +22,11 @@ import sys
 import time
 from pathlib import Path
 
+from effects_oracle import staged
+
 from criticism import CriticismConfig
-from criticism.diagnose import split_masks
-from criticism.mismatch import MismatchConfig
 from criticism.screening import effect_start, fit_effect
 from criticism.search import polish
-from criticism.stage_journal import journalled_stage
-from physics import TrajectoryObjective, load_trajectory
 from physics.effects import EFFECT_TYPES
 
 
@@ -41,27 +39,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--journals", default=".cache/oracle", help="the stage's journal folder per data set and seed "
                     "(benchmarks/effects_oracle.py writes the same)")
     args = ap.parse_args(argv)
-    from testbed.datasets import cached_dataset
-    files = cached_dataset(args.dataset, args.seed, noise=0.0002, version=2)
-    data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
-    full = TrajectoryObjective(data, horizon=25, loss="squared", windows=3)
-    start = time.perf_counter()
+    config, start = CriticismConfig(), time.perf_counter()
+    s = staged(args.dataset, args.seed, Path(args.journals), config)
     try:
-        fit, held = split_masks(full.segments, [2])
-        stage = journalled_stage(full, fit, [2], config=MismatchConfig(),
-                                 journal_dir=Path(args.journals) / f"{args.dataset}-s{args.seed}", progress=False)
-        model, config = full.with_effects(stage.effects), CriticismConfig()
-        base = polish(model, stage.theta, fit, config)
-        print(f"base: E_F {base.parts[fit].sum():.4f}, E_H {base.parts[held].sum():.4f}", flush=True)
-        extended, theta, indices = effect_start(model, base.theta, EFFECT_TYPES[args.effect]())
-        theta, parts = fit_effect(extended, theta, indices, fit, grid=config.grid, refine=config.refine)
-        _report("screened", extended.space.names, theta, indices, parts, fit, held, start)
+        print(f"base: E_F {s.base.parts[s.fit].sum():.4f}, E_H {s.base.parts[s.held].sum():.4f}", flush=True)
+        extended, theta, indices = effect_start(s.model, s.base.theta, EFFECT_TYPES[args.effect]())
+        theta, parts = fit_effect(extended, theta, indices, s.fit, grid=config.grid, refine=config.refine)
+        _report("screened", extended.space.names, theta, indices, parts, s.fit, s.held, start)
         for k in range(args.rounds):
-            joint = polish(extended, theta, fit, config)
+            joint = polish(extended, theta, s.fit, config)
             theta = joint.theta
-            _report(f"joint round {k + 1}", extended.space.names, theta, indices, joint.parts, fit, held, start)
+            _report(f"joint round {k + 1}", extended.space.names, theta, indices, joint.parts, s.fit, s.held, start)
     finally:
-        full.close()
+        s.full.close()
     return 0
 
 
