@@ -140,8 +140,8 @@ def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask
            config: LeastSquaresConfig = LeastSquaresConfig()) -> LocalFit:
     """Refine θ[indices] (θ (D,)) on the segments ``mask`` (S,) by bounded least squares (module
     docstring) from the objective's ``residuals_batch``: up to ``config.rounds`` runs, the next
-    while the last lowered E_F by more than ``config.converged`` of its start. Raises BeliefError if the simulation at θ
-    itself fails, NoResidualsError if the objective has no residuals."""
+    while the last lowered E_F by more than ``config.converged`` of its start. Raises BeliefError
+    if the simulation at θ itself fails, NoResidualsError if the objective has no residuals."""
     theta = np.asarray(theta, float).copy()
     mask = np.asarray(mask, bool)
     index = [int(j) for j in indices]

@@ -299,14 +299,13 @@ def main(argv: list[str] | None = None) -> int:
     saved = read_rows(out)
     done = {_key(r) for r in saved}
     seeds = range(args.first_seed, args.first_seed + args.seeds)
-    rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds
-            and r.get("held_out", "heading") == args.held_out and r.get("budget") == args.budget
-            and r.get("flops_version", 1) == args.flops_version and r.get("read_contact", False) == args.read_contact
-            and r.get("engine", "bullet") == FOREIGN.get(args.source, "bullet") and r.get("rounds", 1) == args.rounds]
+    protocol = _key({"scenario": None, "seed": None, "held_out": args.held_out, "budget": args.budget,
+                     "flops_version": args.flops_version, "read_contact": args.read_contact,
+                     "engine": FOREIGN.get(args.source, "bullet"), "rounds": args.rounds})[2:]
+    rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds and _key(r)[2:] == protocol]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
-            if (name, seed, args.held_out, args.budget, args.flops_version, args.read_contact,
-                    FOREIGN.get(args.source, "bullet"), args.rounds) in done:
+            if (name, seed, *protocol) in done:
                 continue
             row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version,
                              args.read_contact, Path(args.journals) if args.journals else None, args.rounds),
