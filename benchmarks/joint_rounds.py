@@ -1,8 +1,9 @@
 """How far criticism's joint refinement of one effect gets, round by round, on a testbed data set.
 
 Criticism (criticism.search) screens an effect with the model's parameters held, then refines
-(θ, η) together by one bounded least-squares run of ``CriticismConfig.local`` (at most 12 trial
-points). This script repeats that run ``--rounds`` times from where the last one stopped and
+(θ, η) together by bounded least squares (``CriticismConfig.local``: by default one run of at most
+12 trial points; ``LeastSquaresConfig.rounds`` repeats it inside criticism). This script repeats
+the run ``--rounds`` times from where the last one stopped and
 prints, after each, the effect's size and the fit and held-out errors E_F, E_H, so one sees
 whether the single run the search makes has converged. Per data set and seed (flops version 2,
 0.2 mm noise; fit on ``flop_0`` and ``flop_1``, held out ``heldout_0``, as diagnose splits them):
