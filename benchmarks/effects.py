@@ -70,6 +70,8 @@ from criticism.mismatch import MismatchConfig
 from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, model_space
 
+#: Criticism's default number of least-squares runs per refinement (CriticismConfig.local).
+DEFAULT_ROUNDS = CriticismConfig().local.rounds
 MIXES = {"mix": ("ground_slope", "actuator_delay"), "actuator+contact": ("rate_limited_actuator", "end_cap_radius")}
 #: scenarios whose effect sits where the catalog's default instance does not: the search must find its place
 PLACED = {"point_mass_elsewhere": PointMass(rod=3, position=-0.6)}
@@ -170,7 +172,7 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flo
 
 def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
             mismatch: bool = False, flops_version: int = 1, read_contact: bool = False,
-            journals: Path | None = None, rounds: int = 1) -> dict:
+            journals: Path | None = None, rounds: int = DEFAULT_ROUNDS) -> dict:
     """The row of one scenario and seed; diagnose journals its stage and evaluations in a folder of
     ``journals`` named after the run (None: not journalled). ``rounds``: of criticism's least-squares
     refinements (belief.least_squares.LeastSquaresConfig.rounds)."""
@@ -195,7 +197,7 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
                  held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None,
-                 read_contact: bool = False, journal_dir: Path | None = None, rounds: int = 1) -> dict:
+                 read_contact: bool = False, journal_dir: Path | None = None, rounds: int = DEFAULT_ROUNDS) -> dict:
     """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``, the
     contact read from the flops first if ``read_contact``) in ``passes`` passes (default: 2 for a
     mix, else 1); the benchmark's row (JSON-ready)."""
@@ -235,7 +237,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
 
 def _key(row: dict) -> tuple:
     """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact
-    read, engine, least-squares rounds)."""
+    read, engine, least-squares rounds: 1 in rows saved before they were recorded)."""
     return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"),
             row.get("flops_version", 1), row.get("read_contact", False), row.get("engine", "bullet"),
             row.get("rounds", 1))
@@ -273,8 +275,9 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--journals", default=None, metavar="DIR",
                     help="journal each run's diagnosis under DIR (a rerun with another criticism reuses its mismatch "
                          "stage and first identification; a journal of another problem is an error)")
-    ap.add_argument("--rounds", type=int, default=1, help="most runs of each of criticism's least-squares "
-                    "refinements (belief.least_squares; default 1)")
+    ap.add_argument("--rounds", type=int, default=DEFAULT_ROUNDS, help="most runs of each of criticism's "
+                    f"least-squares refinements (belief.least_squares; default {DEFAULT_ROUNDS}, CriticismConfig's; "
+                    "rows without a rounds field made one)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     return ap

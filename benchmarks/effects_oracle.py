@@ -6,8 +6,8 @@ search knew its true size. Per testbed data set and seed (flops version 2, 0.2 m
 ``flop_0`` and ``flop_1``, held out ``heldout_0``, as diagnose splits them):
 
 1. the mismatch stage (criticism.mismatch, journalled under ``--journals``) augments the T6;
-2. the base: the augmented model re-tuned on the fit flops (criticism.polish from the stage's θ):
-   E_F, E_H;
+2. the base: the augmented model re-tuned on the fit flops (criticism.polish from the stage's θ,
+   one least-squares run per fit): E_F, E_H;
 3. the truth: the catalog effect that models the hidden one, at the testbed's true size, added
    with its size held and the model's parameters re-tuned on the fit flops (polish over θ only):
    explained_true = 1 - E_H(truth) / E_H(base);
@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 from jsonl_rows import read_rows
 
-from belief.least_squares import LocalFit
+from belief.least_squares import LeastSquaresConfig, LocalFit
 from criticism import CriticismConfig
 from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, MismatchReport
@@ -47,6 +47,8 @@ from criticism.stage_journal import journalled_stage
 from physics import TrajectoryObjective, load_trajectory
 from physics.effects import ActuatorDelay, Effect, GroundSlope, GroundViscosity, PointMass, SensorBias, ViscousDrag
 
+#: Criticism's settings with one least-squares run per fit, the protocol of the saved rows.
+ONE_RUN = CriticismConfig(local=LeastSquaresConfig(rounds=1))
 DATASETS = ("slope", "actuator_delay", "extra_mass", "ground_viscosity", "marker_offset", "drag")
 
 
@@ -161,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in args.datasets:
             if (name, seed) in done:
                 continue
-            row = run_one(name, seed, Path(args.journals), CriticismConfig())
+            row = run_one(name, seed, Path(args.journals), ONE_RUN)
             saved.append(row)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")

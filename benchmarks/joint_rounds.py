@@ -1,12 +1,12 @@
 """How far criticism's joint refinement of one effect gets, round by round, on a testbed data set.
 
 Criticism (criticism.search) screens an effect with the model's parameters held, then refines
-(θ, η) together by bounded least squares (``CriticismConfig.local``: by default one run of at most
-12 trial points; ``LeastSquaresConfig.rounds`` repeats it inside criticism). This script repeats
-the run ``--rounds`` times from where the last one stopped and
-prints, after each, the effect's size and the fit and held-out errors E_F, E_H, so one sees
-whether the single run the search makes has converged. Per data set and seed (flops version 2,
-0.2 mm noise; fit on ``flop_0`` and ``flop_1``, held out ``heldout_0``, as diagnose splits them):
+(θ, η) together by bounded least squares (``CriticismConfig.local``: runs of at most 12 trial
+points, repeated inside criticism up to ``LeastSquaresConfig.rounds`` times). This script makes one
+run at a time, ``--rounds`` times, each from where the last one stopped, and prints, after each, the
+effect's size and the fit and held-out errors E_F, E_H, so one sees how many runs the fit needs.
+Per data set and seed (flops version 2, 0.2 mm noise; fit on ``flop_0`` and ``flop_1``, held out
+``heldout_0``, as diagnose splits them):
 
 1. the mismatch stage (criticism.mismatch, journalled under ``--journals``) augments the T6 and
    the base is the augmented model re-tuned on the fit flops (criticism.polish), as in
@@ -25,6 +25,7 @@ from pathlib import Path
 
 from effects_oracle import staged
 
+from belief.least_squares import LeastSquaresConfig
 from criticism import CriticismConfig
 from criticism.screening import effect_start, fit_effect
 from criticism.search import polish
@@ -40,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--journals", default=".cache/oracle", help="the stage's journal folder per data set and seed "
                     "(benchmarks/effects_oracle.py writes the same)")
     args = ap.parse_args(argv)
-    config, start = CriticismConfig(), time.perf_counter()
+    config, start = CriticismConfig(local=LeastSquaresConfig(rounds=1)), time.perf_counter()
     s = staged(args.dataset, args.seed, Path(args.journals), config)
     try:
         print(f"base: E_F {s.base.parts[s.fit].sum():.4f}, E_H {s.base.parts[s.held].sum():.4f}", flush=True)

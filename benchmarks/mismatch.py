@@ -39,7 +39,8 @@ read parts, and ``bare_before`` adds the bare T6 re-tuned, the before of the run
 the hysteresis data: does the actuator law then pay?); they are re-tuned with the T6 and stay out of
 ``kept``.
 
-``--components``, ``--rounds``, ``--read-contact`` and ``--base`` change the stage (give such runs their own ``--out``).
+``--components``, ``--rounds``, ``--local-rounds``, ``--read-contact`` and ``--base`` change the stage
+(give such runs their own ``--out``).
 Rows are appended to ``--out`` (JSON lines); a (dataset, seed, noise) already there is skipped.
 """
 from __future__ import annotations
@@ -93,7 +94,8 @@ def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str =
         bare = (absorb_mismatch(objective, fit, [2], config=replace(config, rounds=0), progress=False).before.totals()
                 if read and contact else None)
     row = {"source": source, "components": [c.name for c in config.components], "rounds": config.rounds,
-            "flops_version": flops_version, "dataset": dataset, "seed": seed, "noise": noise,
+            "local_rounds": config.local.rounds, "flops_version": flops_version, "dataset": dataset, "seed": seed,
+            "noise": noise,
             "read_contact": contact, "base": list(base), "read": [e.name for e in read], "bare_before": bare,
             "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
@@ -175,6 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--flops-version", type=int, default=1, help="of the testbed's flops (testbed.datasets: "
                     "2 draws each flop's actuation from the seed)")
     ap.add_argument("--rounds", type=int, default=None, help="most components kept (default: MismatchConfig's)")
+    ap.add_argument("--local-rounds", type=int, default=None, help="most runs of each least-squares re-tuning "
+                    "(belief.least_squares.LeastSquaresConfig.rounds; default: MismatchConfig's, one)")
     ap.add_argument("--read-contact", action="store_true",
                     help="run the stage on the end caps the flops' contact law reads (criticism.contact)")
     ap.add_argument("--base", nargs="+", default=[], metavar="EFFECT",
@@ -194,16 +198,18 @@ def main(argv: list[str] | None = None) -> int:
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
     args.dataset = args.dataset or ("none" if args.source == "own" else "nominal")
     key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1),
-            r.get("read_contact", False), tuple(r.get("base", ()))): r for r in saved}
+            r.get("read_contact", False), tuple(r.get("base", ())), r.get("local_rounds", 1)): r for r in saved}
     config = MismatchConfig()
     if args.components:
         config = replace(config, components=tuple(effects_by_name(args.components)))
     if args.rounds is not None:
         config = replace(config, rounds=args.rounds)
+    if args.local_rounds is not None:
+        config = replace(config, local=replace(config.local, rounds=args.local_rounds))
     rows = []
     for seed in seeds:
         row = key.get((args.source, args.dataset, seed, args.noise, args.flops_version, args.read_contact,
-                       tuple(args.base)))
+                       tuple(args.base), config.local.rounds))
         if row is None:
             row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config, args.flops_version,
                           args.read_contact, tuple(args.base))

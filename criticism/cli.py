@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from dataclasses import replace
 from typing import Any
 
 from belief.errors import JournalError
@@ -18,6 +19,7 @@ from criticism.html_report import write_diagnose_report
 from criticism.limits import require_diagnosable
 from criticism.mismatch import MismatchConfig
 from criticism.report import diagnosis_text, write_report
+from criticism.search import CriticismConfig
 from criticism.stage_journal import STAGE_JOURNAL
 from physics.cli_check import preflight
 from physics.model_file import effects_by_name
@@ -54,6 +56,10 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
                    help="skip the mismatch stage, which by default first absorbs the engine mismatch: re-tunes the T6 "
                         "and adds the component changes (actuator law, cable anchors, end caps) that make it "
                         "reproduce the data (criticism.mismatch); the effects are then searched on that model")
+    p.add_argument("--fit-rounds", type=int, default=None, metavar="N",
+                   help="most least-squares runs of each of criticism's re-tunings and joint fits, each from the "
+                        "last one's best point until a run gains less than 1 %% (default 4; 1 is faster and stops "
+                        "short where an effect trades off the model's parameters; docs/diagnose.md, step 2)")
     p.add_argument("--read-contact", action="store_true",
                    help="first read the end caps' shape and the markers' offset from the flops (criticism.contact): "
                         "flat ends join the model, and an evident offset is added before identifying")
@@ -82,6 +88,16 @@ def _check_prior_box(args: argparse.Namespace) -> None:
     if box_changes(prior_box_from_args(args, default), default):
         raise CriticismError("diagnose identifies in the default prior box only (criticism.diagnose takes no "
                              "parameter space yet); drop --nominal/--bounds/--params, or use tensegrid identify.")
+
+
+def _criticism(fit_rounds: int | None) -> CriticismConfig:
+    """CriticismConfig with ``--fit-rounds`` runs per least-squares fit (None: the default's)."""
+    if fit_rounds is None:
+        return CriticismConfig()
+    if fit_rounds < 1:
+        raise CriticismError(f"--fit-rounds is the most least-squares runs per fit and must be at least 1, got "
+                             f"{fit_rounds}; give 1 for one run, or leave it out for the default.")
+    return CriticismConfig(local=replace(CriticismConfig().local, rounds=fit_rounds))
 
 
 def _before_run(args: argparse.Namespace, config: DiagnoseConfig) -> None:
@@ -113,7 +129,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     effects = None if args.effects is None else list(effects_by_name(args.effects))
     config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates, horizon=args.horizon,
                             seed=args.seed, mismatch=None if args.no_mismatch else MismatchConfig(),
-                            read_contact=args.read_contact)
+                            read_contact=args.read_contact, criticism=_criticism(args.fit_rounds))
     _before_run(args, config)
     with output_dir(args.out):          # removed again if the run fails before writing into it
         diagnosis = run_with_journals(

@@ -82,7 +82,9 @@ class CriticismConfig:
     an effect must reach to be found; joint: how many of the best screened effects are refined
     jointly with the model's parameters (0: none); tie: an evidence difference below which two
     effects are indistinguishable by evidence (6: "strong" on Kass and Raftery's scale); local:
-    the least-squares refinement of the re-tuning and of the joint fits; min_replication: the
+    the least-squares refinement of the re-tuning and of the joint fits (up to four runs, each from
+    the last's best point: one run stops short on the ridges where an effect's size trades off the
+    model's parameters, e.g. a drag against the cables' damping); min_replication: the
     gain on each fit trajectory the effect must reach when fitted on the others
     (criticism.replication; None: no check)."""
 
@@ -92,7 +94,7 @@ class CriticismConfig:
     min_fraction: float = 0.3
     joint: int = 3
     tie: float = 6.0
-    local: LeastSquaresConfig = field(default_factory=LeastSquaresConfig)
+    local: LeastSquaresConfig = field(default_factory=lambda: LeastSquaresConfig(rounds=4))
     min_replication: float | None = 0.0
 
     def __post_init__(self) -> None:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import os
 
+from belief.least_squares import LeastSquaresConfig
 from criticism import CriticismConfig, DiagnoseConfig, diagnose, diagnosis_text, write_report
 from physics import FlopController, describe_trajectory, simulate
 from physics.effects import ActuatorDelay, GroundSlope, RateLimitedActuation, SensorBias, catalog, model_space
@@ -49,9 +50,10 @@ def main() -> None:
     print("what the first recording holds:", "; ".join(describe_trajectory(data[0])))
 
     # Identify on flops 0 and 1, criticize on flop 2, add what is found, identify again.
-    if args.quick:   # four effects, coarser fits, one pass, no mismatch stage: the same loop in a few minutes
-        config = DiagnoseConfig(budget=24, candidates=512, passes=1, mismatch=None,
-                                criticism=CriticismConfig(grid=5, refine=3, joint=1))
+    if args.quick:   # four effects, coarser fits of one least-squares run each, one pass, no mismatch stage:
+        config = DiagnoseConfig(budget=24, candidates=512, passes=1, mismatch=None,   # the same loop in minutes
+                                criticism=CriticismConfig(grid=5, refine=3, joint=1,
+                                                          local=LeastSquaresConfig(rounds=1)))
         effects = [ActuatorDelay(), RateLimitedActuation(), SensorBias(), GroundSlope()]
     else:
         config, effects = DiagnoseConfig(budget=40, candidates=2048, passes=2), catalog()

@@ -209,6 +209,8 @@ def test_diagnose_validates_the_box_and_refuses_a_changed_one(tmp_path, data, ca
     _error(capsys, "diagnose identifies in the default prior box only")
     assert main(["diagnose", *data, "--budget", "0", "--out", str(out)]) == 2
     _error(capsys, "budget >= 2")
+    assert main(["diagnose", *data, "--fit-rounds", "0", "--out", str(out)]) == 2
+    _error(capsys, "--fit-rounds is the most least-squares runs per fit and must be at least 1, got 0")
     assert not out.exists()
 
 

@@ -7,12 +7,15 @@ import json
 import pytest
 import xarray as xr
 
-from criticism import DiagnoseConfig, diagnose, diagnosis_record, diagnosis_text, write_report
+from belief.least_squares import LeastSquaresConfig
+from criticism import CriticismConfig, DiagnoseConfig, diagnose, diagnosis_record, diagnosis_text, write_report
 from criticism.contact import read_contact
 from physics import FlopController, simulate
 from physics.effects import ActuatorDelay, CylinderCaps, SensorBias, effect_from_config, model_space
 from physics.errors import ParameterError
 
+#: One least-squares run per criticism fit: these tests are about the contact read, not the fits.
+ONE_RUN = CriticismConfig(local=LeastSquaresConfig(rounds=1))
 OFFSET = 0.012
 
 
@@ -51,7 +54,8 @@ def test_flat_ends_bring_the_caps_and_an_evident_offset_spheres_bring_nothing(fl
 
 @pytest.mark.slow
 def test_diagnose_reads_the_contact_first_and_writes_it_to_the_model(tmp_path, flat_ends) -> None:
-    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None, read_contact=True)
+    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None, read_contact=True,
+                            criticism=ONE_RUN)
     d = diagnose(flat_ends, held_out=[1], effects=[SensorBias(), ActuatorDelay()], config=config, n_workers=0,
                  progress=False)
     assert d.contact is not None and [e.name for e in d.first_model] == ["cylinder_caps", "sensor_bias"]
@@ -65,5 +69,6 @@ def test_diagnose_reads_the_contact_first_and_writes_it_to_the_model(tmp_path, f
     record = json.loads((tmp_path / "diag" / "model.json").read_text())
     assert [e["effect"] for e in record["effects"][:2]] == ["cylinder_caps", "sensor_bias"]
     unread = diagnose(flat_ends, held_out=[1], effects=[ActuatorDelay()], n_workers=0, progress=False,
-                      config=DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None))
+                      config=DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None,
+                                            criticism=ONE_RUN))
     assert unread.contact is None and unread.measured == () and "contact law" not in diagnosis_text(unread)

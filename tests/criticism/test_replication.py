@@ -8,14 +8,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from belief.least_squares import LeastSquaresConfig
 from criticism.diagnose import split_masks
 from criticism.replication import fit_groups, replication_gains
 from criticism.search import CriticismConfig, criticize
 from physics import FlopController, TrajectoryObjective, simulate
 from physics.effects import ActuatorDelay, model_space
 
-#: The evidence bar off: these tests are about replication, on data with little of the model's own freedom in them.
-LENIENT = CriticismConfig(grid=5, refine=3, joint=1, min_evidence=0.0)
+#: The evidence bar off: these tests are about replication, on data with little of the model's own freedom in them;
+#: one least-squares run per refinement keeps them short.
+LENIENT = CriticismConfig(grid=5, refine=3, joint=1, min_evidence=0.0, local=LeastSquaresConfig(rounds=1))
 
 
 def test_groups_are_the_fit_trajectories_and_one_trajectory_is_no_replication():

@@ -3,10 +3,12 @@ benchmarks/effects.py, which prints the statistics over seeds)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from belief.least_squares import LeastSquaresConfig
 from criticism import CriticismError
 from criticism.candidate import rescore as _rescore
 from criticism.diagnose import split_masks
@@ -19,9 +21,11 @@ from physics.effects import (
 
 pytestmark = pytest.mark.slow
 
-#: A catalog subset and coarser fits keep each criticism to about 250 evaluations.
+#: A catalog subset, coarser fits and one least-squares run per refinement (the default's further
+#: runs only lower the fit error: tests/belief/test_least_squares.py) keep each criticism to about
+#: 250 evaluations.
 SUBSET = [SensorBias(), EndCapRadius(), GroundSlope(), NonlinearStiffness(), ActuatorDelay()]
-QUICK = CriticismConfig(grid=5, refine=5, joint=2)
+QUICK = CriticismConfig(grid=5, refine=5, joint=2, local=LeastSquaresConfig(rounds=1))
 
 
 def _flops(effects=(), values=None, headings=(0.0, 2.1), noise=0.0002, duration=1.2, nan=0):
@@ -68,10 +72,12 @@ def test_criticism_finds_a_sensor_bias_and_its_size():
 
 
 def test_criticism_claims_nothing_on_data_the_model_explains():
+    """With the default's refinements run to convergence: fitting further must not make a claim."""
     data, theta = _flops()
     objective = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
     fit, held = split_masks(objective.segments, [1])
-    crit = criticize(objective, theta, fit=fit, held=held, effects=SUBSET, config=QUICK, progress=False)
+    converged = replace(QUICK, local=CriticismConfig().local)
+    crit = criticize(objective, theta, fit=fit, held=held, effects=SUBSET, config=converged, progress=False)
     assert crit.verdict == "unexplained" and crit.found is None, crit.table()
 
 
@@ -102,7 +108,7 @@ def test_one_trajectory_alternates_its_windows_between_fit_and_held_out():
     fit, held = split_masks(objective.segments, [])
     assert fit.tolist() == [True, False, True, False]
     crit = criticize(objective, theta[:15], fit=fit, held=held, effects=[SensorBias(), ActuatorDelay()],
-                     config=CriticismConfig(grid=5, refine=3, joint=2), progress=False)
+                     config=replace(QUICK, refine=3), progress=False)
     assert crit.verdict == "found" and crit.found.name == "actuator_delay", crit.table()
     assert crit.found.explained > 0.5 and crit.found.values["actuator_delay"] == pytest.approx(0.08, abs=0.02)
 
