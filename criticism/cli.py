@@ -58,8 +58,9 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
                         "reproduce the data (criticism.mismatch); the effects are then searched on that model")
     p.add_argument("--fit-rounds", type=int, default=None, metavar="N",
                    help="most least-squares runs of each of criticism's re-tunings and joint fits, each from the "
-                        "last one's best point until a run gains less than 1 %% (default 4; 1 is faster and stops "
-                        "short where an effect trades off the model's parameters; docs/diagnose.md, step 2)")
+                        f"last one's best point until a run gains less than 1 %% (default "
+                        f"{CriticismConfig().local.rounds}; 1 is faster and stops short where an effect trades off "
+                        "the model's parameters; docs/diagnose.md, step 2)")
     p.add_argument("--read-contact", action="store_true",
                    help="first read the end caps' shape and the markers' offset from the flops (criticism.contact): "
                         "flat ends join the model, and an evident offset is added before identifying")
