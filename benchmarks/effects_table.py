@@ -226,13 +226,16 @@ def details(rows: list[dict]) -> None:
 def print_rows(rows: list[dict]) -> None:
     """One line per row: data set, seed, effects measured at rest, the top of the ranking, found, and
     the held-out error of the first pass's re-tuned model (E before) and after the found effects;
-    the top effect's evidence, explained fraction and replication gains (criticism.replication)."""
+    the top effect's evidence, explained fraction and replication gains, held and refitted where the
+    refit check ran (criticism.replication)."""
     print(f"\n{'scenario':18s} {'seed':>4}  {'measured at rest':18s} {'top':22s} {'E before':>10} {'E after':>10}  "
           f"{'evidence':>8} {'explains':>8}  {'replication':22s} found")
     for r in rows:
         after = f"{r['held_after']:10.4g}" if r.get("held_after") is not None else f"{'-':>10}"
-        gains = (r.get("replication") or {}).get("gains") or {}
-        replication = " ".join(f"{g} {v:+.0%}" for g, v in gains.items()) or "-"
+        record = r.get("replication") or {}
+        replication = " ".join(f"{g} {v:+.0%}" for g, v in (record.get("gains") or {}).items()) or "-"
+        if record.get("refit"):
+            replication += " refit " + " ".join(f"{g} {v:+.0%}" for g, v in record["refit"].items())
         print(f"{r['scenario']:18s} {r['seed']:4d}  {', '.join(r.get('measured', [])) or '-':18s} {str(r['top']):22s} "
               f"{r['held_before']:10.4g} {after}  {r['top_evidence'] or math.nan:8.1f} "
               f"{r['top_explained'] or math.nan:8.1%}  {replication:22s} {', '.join(r['found']) or '-'}")

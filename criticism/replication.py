@@ -15,6 +15,18 @@ An effect is found only when every gain_g ≥ CriticismConfig.min_replication (d
 the others, the effect never makes a trajectory worse). The check needs two fit trajectories;
 with fewer it is skipped (no gains). A freedom that absorbs a mismatch all trajectories share
 replicates like a cause, and this check cannot tell them apart.
+
+Holding θ̃ is not neutral when the model's parameters partly mimic the effect: θ̃ was re-tuned on
+all of F without it (a drag traded against the cables' damping), so an η fitted on F ∖ g on top
+of θ̃ can overshoot on g. The *refit* check gives the model alone and the model with the effect
+the same freedom:
+
+    θ̂₋g       = least squares of θ on F ∖ g, from θ̃                  (the model alone)
+    (θ, η)̂₋g  = least squares of (θ, η) on F ∖ g, from the joint fit (θ̂_e, η̂_e)
+    refit_g   = 1 - E_g((θ, η)̂₋g) / E_g(θ̂₋g)
+
+Criticism runs it only where it decides a verdict (criticism.search, step 3): the top effect
+passes both bars but does not replicate with θ̃ held.
 """
 from __future__ import annotations
 
@@ -23,11 +35,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from belief import least_squares
+from belief.least_squares import LeastSquaresConfig
 from criticism.screening import effect_start, fit_effect
 from physics.effect_objective import EffectObjective
 from physics.effects import Effect
 
-__all__ = ["fit_groups", "replication_gains"]
+__all__ = ["fit_groups", "replication_gains", "refit_replication_gains"]
 
 
 def fit_groups(segments: Sequence[str], fit: np.ndarray) -> dict[str, np.ndarray]:
@@ -52,6 +66,31 @@ def replication_gains(objective: EffectObjective, theta: np.ndarray, effect: Eff
     gains: dict[str, float] = {}
     for name, group in groups.items():
         _, parts = fit_effect(extended, start, indices, np.asarray(fit, bool) & ~group, grid=grid, refine=refine)
-        before, after = float(base[group].sum()), float(parts[group].sum())
-        gains[name] = (1.0 - after / before if before > 0 else 0.0) if math.isfinite(after) else -math.inf
+        gains[name] = _gain(float(base[group].sum()), float(parts[group].sum()))
+    return gains
+
+
+def _gain(before: float, after: float) -> float:
+    """1 - after / before; 0 when there is nothing to explain, -inf when the fit failed."""
+    if not math.isfinite(after):
+        return -math.inf
+    return 1.0 - after / before if before > 0 else 0.0
+
+
+def refit_replication_gains(objective: EffectObjective, theta: np.ndarray, joint_theta: np.ndarray, effect: Effect,
+                            fit: np.ndarray, config: LeastSquaresConfig) -> dict[str, float]:
+    """refit_g (module docstring) of ``effect`` (not in ``objective``) for each fit trajectory: the
+    model alone re-tuned from θ̃ (D,), the model with the effect from its joint fit (D + k,), both by
+    ``config``'s least squares on the other fit trajectories; {} with fewer than two."""
+    groups = fit_groups(objective.segments, fit)
+    if not groups:
+        return {}
+    fit = np.asarray(fit, bool)
+    extended = objective.with_effects(tuple(objective.effects) + (effect,))
+    gains: dict[str, float] = {}
+    for name, group in groups.items():
+        alone = least_squares.refine(objective, np.asarray(theta, float), range(len(theta)), fit & ~group, config)
+        both = least_squares.refine(extended, np.asarray(joint_theta, float), range(extended.space.dim),
+                                    fit & ~group, config)
+        gains[name] = _gain(float(alone.parts[group].sum()), float(both.parts[group].sum()))
     return gains

@@ -41,7 +41,9 @@ segments into *fit* segments F and *held-out* segments H:
    the two is found (the next pass looks for the second). Either way the effect must also
    *replicate* (criticism.replication): fitted without each fit trajectory, it must not make that
    trajectory worse (``min_replication``), which a freedom that absorbs each trajectory's own
-   model error does.
+   model error does. When the top effect passes both bars but fails that check with θ̃ held, it
+   gets the *refit* check (``refit_replication``): the model alone and the model with the effect,
+   each re-tuned without the trajectory left out, and the effect must not make it worse.
    Otherwise **unexplained**, with where the residual concentrates (criticism.residuals).
    When several effects would each be found (a sensor bias and a larger end-cap radius both
    lift the resting robot), they are *contenders* (:func:`_contest`): all are scored with the
@@ -64,7 +66,7 @@ from belief import least_squares
 from belief.least_squares import LeastSquaresConfig, LocalFit
 from criticism.candidate import Candidate, effective_counts, place_text, rescore, scored, values_text
 from criticism.errors import CriticismError
-from criticism.replication import replication_gains
+from criticism.replication import refit_replication_gains, replication_gains
 from criticism.screening import effect_start, fit_effect
 from physics.effect_objective import EffectObjective
 from physics.effects import Effect, effect_from_config
@@ -86,7 +88,9 @@ class CriticismConfig:
     the last's best point: one run stops short on the ridges where an effect's size trades off the
     model's parameters, e.g. a drag against the cables' damping); min_replication: the
     gain on each fit trajectory the effect must reach when fitted on the others
-    (criticism.replication; None: no check)."""
+    (criticism.replication; None: no check); refit_replication: whether an effect that passes
+    both bars but does not replicate with θ̃ held is checked again with the model's parameters
+    re-tuned as well (criticism.replication, the refit check)."""
 
     grid: int = 7
     refine: int = 5
@@ -96,6 +100,7 @@ class CriticismConfig:
     tie: float = 6.0
     local: LeastSquaresConfig = field(default_factory=lambda: LeastSquaresConfig(rounds=4))
     min_replication: float | None = 0.0
+    refit_replication: bool = True
 
     def __post_init__(self) -> None:
         if self.grid < 3 or self.refine < 3:
@@ -128,7 +133,7 @@ class Criticism:
     pair: dict[str, Any] | None = None    # the two best refined together (module docstring, step 3)
     alternatives: list[str] = field(default_factory=list)   # effects the evidence cannot tell from the found one
     contest: dict[str, Any] | None = None  # the contenders and their common effective counts (:func:`_contest`)
-    replication: dict[str, Any] | None = None   # {"effect", "gains", "replicated"} of the top effect
+    replication: dict[str, Any] | None = None   # {"effect", "gains", "replicated"[, "refit"]} of the top effect
 
     def table(self) -> str:
         """The ranking as text: effect, evidence above the floor, explained fraction, fitted size."""
@@ -146,9 +151,14 @@ class Criticism:
             lines.append(f"      indistinguishable by evidence from the found effect: {', '.join(self.alternatives)}")
         if self.replication is not None and self.replication["gains"]:
             gains = ", ".join(f"{g} {v:+.1%}" for g, v in self.replication["gains"].items())
-            verdict = "" if self.replication["replicated"] else " -> does not replicate"
+            refitted = "refit" in self.replication        # run only when the check with θ̃ held failed
+            verdict = " -> does not replicate" if refitted or not self.replication["replicated"] else ""
             lines.append(f"      {self.replication['effect']} fitted without each fit trajectory, its gain there: "
                          f"{gains}{verdict}")
+            if refitted:
+                refit = ", ".join(f"{g} {v:+.1%}" for g, v in self.replication["refit"].items())
+                lines.append(f"      refitted with the model's parameters as well: {refit} -> "
+                             f"{'replicates' if self.replication['replicated'] else 'does not replicate'}")
         if self.pair is not None:
             a, b = self.pair["effects"]
             given = self.pair["given"]
@@ -282,15 +292,20 @@ def _order(ranking: list[Candidate], config: CriticismConfig) -> list[Candidate]
 
 
 def _replicates(objective: EffectObjective, crit: Criticism, fit: np.ndarray, config: CriticismConfig) -> bool:
-    """Whether the top effect replicates across the fit trajectories (criticism.replication); records
-    its gains in crit.replication. True when the check is off or has fewer than two groups."""
+    """Whether the top effect replicates across the fit trajectories (criticism.replication), with θ̃
+    held or, where that fails for an effect that passes both bars, refitted; records the gains in
+    crit.replication. True when the check is off or has fewer than two groups."""
     if config.min_replication is None:
         return True
     top = crit.ranking[0]
-    gains = replication_gains(objective, crit.theta, effect_from_config(top.config), fit, grid=config.grid,
-                              refine=config.refine)
-    replicated = all(g >= config.min_replication for g in gains.values())
+    effect, bar = effect_from_config(top.config), config.min_replication
+    gains = replication_gains(objective, crit.theta, effect, fit, grid=config.grid, refine=config.refine)
+    replicated = all(g >= bar for g in gains.values())
     crit.replication = {"effect": top.name, "gains": gains, "replicated": replicated}
+    if not replicated and config.refit_replication and top.stage == "joint" and _passes(top, config):
+        refit = refit_replication_gains(objective, crit.theta, np.asarray(top.theta, float), effect, fit, config.local)
+        replicated = all(g >= bar for g in refit.values())
+        crit.replication.update(refit=refit, replicated=replicated)
     return replicated
 
 
