@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from criticism.search import CriticismConfig
 from physics import ParameterSpace, load_trajectory
 from physics.effects import EFFECT_TYPES, effect_from_config
 
@@ -204,6 +205,13 @@ def details(rows: list[dict]) -> None:
         evidence = [r["top_evidence"] for r in rows if r["scenario"] == name]
         if evidence:
             print(f"{name}: top evidence {min(evidence):.1f} to {max(evidence):.1f} over {len(evidence)} runs")
+    bars = CriticismConfig()
+    failed = [r for r in rows if r.get("replication") and ("refit" in r["replication"]
+                                                           or not r["replication"]["replicated"])]
+    deciding = [f"{r['scenario']} seed {r['seed']}" for r in failed
+                if (r["top_evidence"] or 0) >= bars.min_evidence and (r["top_explained"] or 0) >= bars.min_fraction]
+    print(f"replication failed with θ̃ held: {len(failed)} runs; of them passing both bars (where the refit check "
+          f"decides): {', '.join(deciding) or 'none'}")
     contests = [r for r in rows if len(r.get("contenders") or {}) > 1 and r["truth"]]
     print(f"\ncontests ({len(contests)} of the {sum('contenders' in r for r in rows)} runs that record contenders)")
     for r in sorted(contests, key=lambda r: (r["scenario"], r["seed"])):
