@@ -71,58 +71,74 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("data", nargs="*", default=[],
                    help="observed trajectories (netCDF, docs/data-format.md); several files make one error E(θ)")
     p.add_argument("--toy", choices=["push"], help="use the 1-D push toy instead of data (no physics engine)")
-    p.add_argument("--preset", choices=list(PRESETS), default=DEFAULT_PRESET,
+    _add_search_options(p.add_argument_group("search"))
+    _add_error_options(p.add_argument_group("error and posterior"))
+    _add_model_options(p)
+    add_prior_box_options(p)
+    run = p.add_argument_group("run")
+    run.add_argument("--out", required=True, help="output directory")
+    run.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the journal (an error when it is missing or of another problem); without it a "
+                          "journal of another problem is set aside as journal.1.sqlite and the run starts afresh")
+    run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    run.add_argument("--skip-checks", action="store_true",
+                     help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
+    p.set_defaults(func=run_identify)
+
+
+def _add_search_options(g: argparse._ArgumentGroup) -> None:
+    """Options of the Bayesian-optimization search: recipe, decoder, grid and budget."""
+    g.add_argument("--preset", choices=list(PRESETS), default=DEFAULT_PRESET,
                    help=f"identification recipe (belief.presets; default {DEFAULT_PRESET}, the best measured)")
-    p.add_argument("--decoder", choices=["rembo", "vae", "ae-dyn", "active"], default=None,
+    g.add_argument("--decoder", choices=["rembo", "vae", "ae-dyn", "active"], default=None,
                    help="latent decoder of the presets with a latent stage (default: the one shipped for the T6's "
                         "default box)")
-    p.add_argument("--decoder-file", default=None,
+    g.add_argument("--decoder-file", default=None,
                    help="a decoder file: `tensegrid train-embedding` writes vae and ae-dyn, "
                         "ActiveSubspace.save writes active (needed by those three)")
-    p.add_argument("--latent", type=int, default=None, metavar="N",
+    g.add_argument("--latent", type=int, default=None, metavar="N",
                    help="evaluations of the latent stage of the handoff presets (default 15)")
-    p.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
-    p.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--dim", type=int, default=5, help="--decoder rembo: latent dimension (default 5, capped at D)")
-    p.add_argument("--points-per-dim", type=int, default=None,
+    g.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
+    g.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
+    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--dim", type=int, default=5, help="--decoder rembo: latent dimension (default 5, capped at D)")
+    g.add_argument("--points-per-dim", type=int, default=None,
                    help="grid nodes per latent axis, and per axis of a full space of D <= 4 (default 11)")
-    p.add_argument("--candidates", type=int, default=4096, help="Sobol candidates of the full-space search, D > 4")
-    p.add_argument("--q", type=int, default=1, help="evaluations per batch (parallel)")
-    p.add_argument("--workers", type=int, default=1,
+    g.add_argument("--candidates", type=int, default=4096, help="Sobol candidates of the full-space search, D > 4")
+    g.add_argument("--q", type=int, default=1, help="evaluations per batch (parallel)")
+    g.add_argument("--workers", type=int, default=1,
                    help="parallel evaluations of a batch (T6: dask worker processes; 1 = serial)")
-    p.add_argument("--posterior", choices=["likelihood", "minimizer"], default="likelihood")
-    p.add_argument("--loss", choices=["squared", "norm"], default="squared",
+
+
+def _add_error_options(g: argparse._ArgumentGroup) -> None:
+    """Options of the T6's error E(θ) and of the posterior P built from it."""
+    g.add_argument("--posterior", choices=["likelihood", "minimizer"], default="likelihood")
+    g.add_argument("--loss", choices=["squared", "norm"], default="squared",
                    help="T6 error: sum of squared residuals (default; what the likelihood posterior assumes) "
                         "or of norms")
-    p.add_argument("--windows", type=int, default=3,
+    g.add_argument("--windows", type=int, default=3,
                    help="T6 error: contiguous segments per trajectory whose errors sum to E (default 3)")
-    p.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
-    p.add_argument("--noise-rule", choices=["ess", "iid"], default="ess",
+    g.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
+    g.add_argument("--noise-rule", choices=["ess", "iid"], default="ess",
                    help="sigma^2 when not given: 'ess' (effective residual count and discrepancy, default) or 'iid' "
                         "(E_min / (K - d), for comparison); docs/identification.md")
-    p.add_argument("--discrepancy", type=float, default=DEFAULT_DISCREPANCY,
+    g.add_argument("--discrepancy", type=float, default=DEFAULT_DISCREPANCY,
                    help=f"ess rule: relative excess error that costs one nat at least, a prior on model error "
                         f"(default {DEFAULT_DISCREPANCY}; 0.05 for data from this very model)")
-    p.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the journal (an error when it is missing or of another problem); without it a "
-                        "journal of another problem is set aside as journal.1.sqlite and the run starts afresh")
-    model = p.add_mutually_exclusive_group()
+    g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                   help="physics step; must divide every file's sampling interval (default: per file, the largest "
+                        "step <= 1 ms that does; docs/data-format.md)")
+
+
+def _add_model_options(p: argparse.ArgumentParser) -> None:
+    """The model's effects: named on the command line or read from diagnose's model file (one or the other)."""
+    model = p.add_argument_group("model").add_mutually_exclusive_group()
     model.add_argument("--effects", nargs="+", default=None, metavar="NAME",
                        help="identify the T6 with these effects, their parameters too (physics.effects.EFFECT_TYPES, "
                             "e.g. tension_limited_actuator cable_anchors)")
     model.add_argument("--model", default=None, metavar="FILE",
                        help="identify with the effects of a model file: DIR/model.json of tensegrid diagnose")
-    add_prior_box_options(p)
-    p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    p.add_argument("--skip-checks", action="store_true",
-                   help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
-    p.add_argument("--dt", type=float, default=None, metavar="SECONDS",
-                   help="physics step; must divide every file's sampling interval (default: per file, the largest "
-                        "step <= 1 ms that does; docs/data-format.md)")
-    p.set_defaults(func=run_identify)
 
 
 def _push_objective(seed: int, space: ParameterSpace) -> tuple[PushObjective, np.ndarray]:
