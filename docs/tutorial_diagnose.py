@@ -50,10 +50,10 @@ def main() -> None:
     print("what the first recording holds:", "; ".join(describe_trajectory(data[0])))
 
     # Identify on flops 0 and 1, criticize on flop 2, add what is found, identify again.
-    if args.quick:   # four effects, coarser fits of one least-squares run each, one pass, no mismatch stage:
-        config = DiagnoseConfig(budget=24, candidates=512, passes=1, mismatch=None,   # the same loop in minutes
+    if args.quick:   # four effects, coarser fits of one short least-squares run each, one pass, no mismatch
+        config = DiagnoseConfig(budget=24, candidates=512, passes=1, mismatch=None,   # stage: the loop in minutes
                                 criticism=CriticismConfig(grid=5, refine=3, joint=1,
-                                                          local=LeastSquaresConfig(rounds=1)))
+                                                          local=LeastSquaresConfig(evaluations=6)))
         effects = [ActuatorDelay(), RateLimitedActuation(), SensorBias(), GroundSlope()]
     else:
         config, effects = DiagnoseConfig(budget=40, candidates=2048, passes=2), catalog()

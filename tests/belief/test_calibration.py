@@ -59,9 +59,10 @@ def coverage(n_problems: int, *, budget: int = 100, points_per_dim: int = 31, le
 
 
 def test_90_percent_region_covers_the_truth_about_90_percent_of_the_time() -> None:
-    r = coverage(20, budget=100)
-    # 20 draws at a true rate of 0.9 fall below 15 hits with probability ~1 %
-    assert r["hit"].sum() >= 15, r["hit"]
+    r = coverage(12, budget=100)
+    # 12 draws at a true rate of 0.9 fall below 9 hits with probability 2.6 %; at a rate of 0.7 they
+    # pass with probability 0.49 (the power of 20 draws with a bar of 15 is no better: 0.42)
+    assert r["hit"].sum() >= 9, r["hit"]
     # ... and the region stays informative: a uniform P would cover the truth with 865 of 961 cells
     assert np.median(r["size"]) < 0.1 * 31**2, r["size"]
 

@@ -14,8 +14,8 @@ from physics import FlopController, simulate
 from physics.effects import ActuatorDelay, CylinderCaps, SensorBias, effect_from_config, model_space
 from physics.errors import ParameterError
 
-#: One least-squares run per criticism fit: these tests are about the contact read, not the fits.
-ONE_RUN = CriticismConfig(local=LeastSquaresConfig(rounds=1))
+#: Screening alone, on a short re-tuning: these tests are about the contact read, not the fits.
+SCREEN_ONLY = CriticismConfig(grid=3, refine=3, joint=0, local=LeastSquaresConfig(evaluations=3))
 OFFSET = 0.012
 
 
@@ -55,7 +55,7 @@ def test_flat_ends_bring_the_caps_and_an_evident_offset_spheres_bring_nothing(fl
 @pytest.mark.slow
 def test_diagnose_reads_the_contact_first_and_writes_it_to_the_model(tmp_path, flat_ends) -> None:
     config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None, read_contact=True,
-                            criticism=ONE_RUN)
+                            criticism=SCREEN_ONLY)
     d = diagnose(flat_ends, held_out=[1], effects=[SensorBias(), ActuatorDelay()], config=config, n_workers=0,
                  progress=False)
     assert d.contact is not None and [e.name for e in d.first_model] == ["cylinder_caps", "sensor_bias"]
@@ -70,5 +70,5 @@ def test_diagnose_reads_the_contact_first_and_writes_it_to_the_model(tmp_path, f
     assert [e["effect"] for e in record["effects"][:2]] == ["cylinder_caps", "sensor_bias"]
     unread = diagnose(flat_ends, held_out=[1], effects=[ActuatorDelay()], n_workers=0, progress=False,
                       config=DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None,
-                                            criticism=ONE_RUN))
+                                            criticism=SCREEN_ONLY))
     assert unread.contact is None and unread.measured == () and "contact law" not in diagnosis_text(unread)

@@ -22,8 +22,8 @@ from physics.effects import ActuatorDelay, CableAnchors, GroundSlope, TensionLim
 from physics.errors import ParameterError
 from physics.model_file import effects_by_name, read_model_file, write_model_file
 
-#: One least-squares run per criticism fit: these tests are about the model file, not the fits.
-ONE_RUN = CriticismConfig(local=LeastSquaresConfig(rounds=1))
+#: Screening alone, on a short re-tuning: these tests are about the model file, not the fits.
+SCREEN_ONLY = CriticismConfig(grid=3, refine=3, joint=0, local=LeastSquaresConfig(evaluations=3))
 
 
 def test_a_model_file_reads_back_its_effects_in_order(tmp_path) -> None:
@@ -62,7 +62,7 @@ def anchored(tmp_path_factory) -> list[xr.Dataset]:
 def test_diagnose_writes_the_model_with_the_stage_s_components_and_identify_uses_it(tmp_path, anchored,
                                                                                       capsys) -> None:
     stage = MismatchConfig(components=(CableAnchors(),), rounds=1, local=LeastSquaresConfig(evaluations=3))
-    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=stage, criticism=ONE_RUN)
+    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=stage, criticism=SCREEN_ONLY)
     d = diagnose(anchored, held_out=[1], effects=[ActuatorDelay()], config=config, n_workers=0, progress=False)
     assert d.mismatch is not None and [e.name for e in d.mismatch.effects] == ["cable_anchors"]
     files = [str(save_trajectory(ds, tmp_path / f"{k}.nc")) for k, ds in enumerate(anchored)]
@@ -97,7 +97,7 @@ def test_a_floor_the_resting_robot_shows_tilted_joins_the_model_before_the_searc
     theta = model_space(effects).as_array({**model_space(effects).as_dict(None), "slope_x": 0.05})
     data = [simulate(theta, controller=FlopController(h), duration=0.6, effects=effects, noise=2e-4, seed=k)
             for k, h in enumerate((0.0, 2.1))]
-    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None, criticism=ONE_RUN)
+    config = DiagnoseConfig(budget=6, candidates=64, passes=1, horizon=10, mismatch=None, criticism=SCREEN_ONLY)
     d = diagnose(data, held_out=[1], effects=[GroundSlope(), ActuatorDelay()], config=config, n_workers=0,
                  progress=False)
     assert [e.name for e in d.measured] == ["ground_slope"] and d.found[0] == "ground_slope"

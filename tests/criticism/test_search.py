@@ -25,7 +25,7 @@ pytestmark = pytest.mark.slow
 #: runs only lower the fit error: tests/belief/test_least_squares.py) keep each criticism to about
 #: 250 evaluations.
 SUBSET = [SensorBias(), EndCapRadius(), GroundSlope(), NonlinearStiffness(), ActuatorDelay()]
-QUICK = CriticismConfig(grid=5, refine=5, joint=2, local=LeastSquaresConfig(rounds=1))
+QUICK = CriticismConfig(grid=5, refine=5, joint=2, local=LeastSquaresConfig(evaluations=6))
 
 
 def _flops(effects=(), values=None, headings=(0.0, 2.1), noise=0.0002, duration=1.2, nan=0):
@@ -126,7 +126,7 @@ def _omission_costs(data, theta, effects, held) -> dict[str, float]:
 
 def test_a_mix_of_two_effects_finds_the_larger_first_and_the_other_next():
     effects = [ActuatorDelay(), GroundSlope()]
-    data, theta = _flops(effects, {"actuator_delay": 0.08, "slope_x": 0.08}, duration=1.5)
+    data, theta = _flops(effects, {"actuator_delay": 0.08, "slope_x": 0.08})
     objective = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
     fit, held = split_masks(objective.segments, [1])
     costs = _omission_costs(data, theta, effects, held)
