@@ -21,9 +21,9 @@ from physics.effects import (
 
 pytestmark = pytest.mark.slow
 
-#: A catalog subset, coarser fits and one least-squares run per refinement (the default's further
-#: runs only lower the fit error: tests/belief/test_least_squares.py) keep each criticism to about
-#: 250 evaluations.
+#: A catalog subset, coarser fits and one short least-squares run per refinement (6 trial points, each
+#: Jacobian k more; the default's further runs only lower the fit error: tests/belief/test_least_squares.py)
+#: keep each criticism short.
 SUBSET = [SensorBias(), EndCapRadius(), GroundSlope(), NonlinearStiffness(), ActuatorDelay()]
 QUICK = CriticismConfig(grid=5, refine=5, joint=2, local=LeastSquaresConfig(evaluations=6))
 
