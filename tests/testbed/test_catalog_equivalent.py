@@ -93,3 +93,17 @@ def test_either_drag_law_counts_as_the_drag_ranked_first_and_found(capsys) -> No
     summarize([row, wrong])
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("drag "))
     assert line.split()[1:5] == ["2", "1", "1", "1"]             # seeds, top=true, named, found
+
+
+def test_the_fit_column_compares_testbed_rows_with_the_testbeds_truth(capsys) -> None:
+    """On a testbed row the "criticism fit (true)" column shows the testbed's 50 ms delay, not the
+    own-engine scenario's 80 ms."""
+    row = {"scenario": "actuator_delay", "seed": 0, "held_out": "testbed", "truth": ["actuator_delay"],
+           "top": "actuator_delay", "top_values": {"actuator_delay": 0.049}, "true_values": {"actuator_delay": 0.05},
+           "found": ["actuator_delay"], "top_explained": 0.5, "held_before": 1.0, "held_after": 0.5}
+    summarize([row])
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("actuator_delay "))
+    assert line.split()[-3:-1] == ["0.049", "(0.05)"]
+    summarize([{**row, "held_out": "heading"}])
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("actuator_delay "))
+    assert line.split()[-3:-1] == ["0.049", "(0.08)"]
