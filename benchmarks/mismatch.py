@@ -14,7 +14,7 @@ for the bare T6 at the nominal θ ("nominal"), the bare T6 re-tuned on the fit f
 the floor diagnose starts from) and the augmented model re-tuned ("after"), and after / before.
 Then the one-step error that observation noise alone leaves (:func:`noise_floor`) and the ratio of
 the errors above it; where the held-out one-step residual lives before and after (shares by phase and by frequency
-band, criticism.mismatch.localize), the medians of the ratios and how many runs reach the issue's
+band, criticism.held_out.localize), the medians of the ratios and how many runs reach the issue's
 targets (both ratios at most 0.5).
 
     .venv/bin/python benchmarks/mismatch.py --seeds 3 --first-seed 2           # nominal robots 2-4
@@ -57,7 +57,8 @@ from jsonl_rows import read_rows
 
 from criticism.contact import read_contact
 from criticism.diagnose import split_masks
-from criticism.mismatch import MismatchConfig, absorb_mismatch, held_scores
+from criticism.held_out import held_scores
+from criticism.mismatch import MismatchConfig, absorb_mismatch
 from physics import ReplayController, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES
 from physics.model_file import effects_by_name

@@ -15,14 +15,17 @@ smaller than it can win. This stage runs first, on fit trajectories F and held-o
    ``MismatchConfig.components`` (an Effect that replaces or reshapes a part of the model) is
    added and (θ, η_c) is re-tuned jointly on F from (θ_b, η_c's nominal); its gain is
    g_c = 1 − E_F(c) / E_F(model so far);
-3. **keep** the component with the largest gain if g_c ≥ ``min_gain``, and try the others again
-   on the model that has it (``rounds``). The decision uses F only, so the held-out figures
-   below stay out of sample;
+3. **keep** the component with the largest gain if g_c ≥ ``min_gain`` and its one-step error on
+   F (horizon 1, every prediction from an observed state) is at most (1 + ``max_one_step_rise``)
+   times the model's before it (else the next by gain), and try the others again on the model
+   that has it (``rounds``). A component that buys windowed fit with a local law the data
+   contradict raises the one-step error, on F and on held-out data alike (docs/diagnose.md, "The
+   one-step guard"). The decision uses F only, so the held-out figures below stay out of sample;
 4. **report** on H, before (θ_b) and after (the augmented model at its re-tuned θ): the one-step
    error Σ||x_{i+1} − f(x_i, u_i, θ)||² (horizon 1), the objective's windowed error, and the
    open-loop drift at ``drift_time`` (mean node distance [m] of one free rollout from the first
    sample); where the residual lives after (phase, nodes, axes, frequency bands,
-   :func:`localize`); the parameters the re-tuning left at a bound of the box (belief.bounds).
+   :func:`criticism.held_out.localize`); the parameters the re-tuning left at a bound of the box (belief.bounds).
 
 The components replace parts criticism never tries against each other: once an actuator is
 swapped, the catalog's other actuator replacements are dropped from the search
@@ -40,21 +43,17 @@ from tqdm.auto import tqdm
 from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
 from belief.least_squares import LeastSquaresConfig
 from criticism.errors import CriticismError
-from criticism.residuals import residual_dataset, residual_summary
+from criticism.held_out import HeldScores, held_scores, localize, one_step_error, where_text
 from criticism.search import CriticismConfig, polish
 from physics.effects import CableAnchors, EndCapRadius, RollingResistance, TensionLimitedActuation, effect_from_config
 from physics.effects.base import Effect
-from physics.errors import PhysicsError
 from physics.trajectory_objective import TrajectoryObjective
 
-__all__ = ["MismatchConfig", "Trial", "HeldScores", "MismatchReport", "absorb_mismatch", "localize", "superseded",
-           "held_scores", "measured_rod_length", "FREQUENCY_BANDS"]
+__all__ = ["MismatchConfig", "Trial", "MismatchReport", "absorb_mismatch", "superseded", "measured_rod_length"]
 
 #: Effects that replace the same component: at most one of each group in a model.
 COMPONENT_GROUPS: tuple[frozenset[str], ...] = (frozenset({"rate_limited_actuator", "tension_limited_actuator"}),
                                                  frozenset({"cable_anchors", "fixed_anchors"}))
-#: Edges [Hz] of the frequency bands of :func:`localize` (the last band runs to the Nyquist frequency).
-FREQUENCY_BANDS: tuple[float, ...] = (0.0, 1.0, 5.0, 15.0)
 
 
 def _default_components() -> tuple[Effect, ...]:
@@ -64,7 +63,9 @@ def _default_components() -> tuple[Effect, ...]:
 @dataclass(frozen=True)
 class MismatchConfig:
     """components: the component changes tried (physics.effects instances); min_gain: the fraction
-    of the fit error a component must remove to be kept; rounds: most components kept;
+    of the fit error a component must remove to be kept; max_one_step_rise: the most its one-step
+    error on the fit trajectories may rise, as a fraction (module docstring, step 3); rounds: most
+    components kept;
     drift_time [s]: when the open-loop drift is read; local: the least-squares re-tuning;
     bound_tolerance: fraction of the box width within which a value is at a bound; hold_measured:
     set ``rod_length`` to the data's node distance and hold it (:func:`measured_rod_length`);
@@ -72,6 +73,7 @@ class MismatchConfig:
 
     components: tuple[Effect, ...] = field(default_factory=_default_components)
     min_gain: float = 0.1
+    max_one_step_rise: float = 0.1
     rounds: int = 3
     drift_time: float = 0.5
     local: LeastSquaresConfig = field(default_factory=LeastSquaresConfig)
@@ -80,16 +82,19 @@ class MismatchConfig:
     null_trial: bool = True
 
     def __post_init__(self) -> None:
-        if not (0.0 < self.min_gain < 1.0 and self.rounds >= 0 and self.drift_time > 0):
-            raise CriticismError(f"MismatchConfig needs 0 < min_gain < 1, rounds >= 0 and drift_time > 0 s, got "
-                                 f"{self.min_gain!r}, {self.rounds!r}, {self.drift_time!r}.")
+        if not (0.0 < self.min_gain < 1.0 and self.max_one_step_rise >= 0 and self.rounds >= 0
+                and self.drift_time > 0):
+            raise CriticismError(f"MismatchConfig needs 0 < min_gain < 1, max_one_step_rise >= 0, rounds >= 0 and "
+                                 f"drift_time > 0 s, got {self.min_gain!r}, {self.max_one_step_rise!r}, "
+                                 f"{self.rounds!r}, {self.drift_time!r}.")
         if not all(isinstance(c, Effect) for c in self.components):
             raise CriticismError("MismatchConfig.components must be physics.effects.Effect instances.")
 
     def record(self) -> dict[str, Any]:
         """The settings as a JSON-able dict (the components by their configs)."""
         return {"components": [c.config() for c in self.components], "min_gain": self.min_gain,
-                "rounds": self.rounds, "drift_time": self.drift_time, "local": self.local.record(),
+                "max_one_step_rise": self.max_one_step_rise, "rounds": self.rounds, "drift_time": self.drift_time,
+                "local": self.local.record(),
                 "bound_tolerance": self.bound_tolerance, "hold_measured": self.hold_measured,
                 **({"null_trial": True} if self.null_trial else {})}
 
@@ -97,7 +102,9 @@ class MismatchConfig:
 @dataclass(frozen=True)
 class Trial:
     """One component tried in a round: its fitted parameters, the fit error after the joint
-    re-tuning, its gain over the model of that round, whether it was kept, and the full θ."""
+    re-tuning, its gain over the model of that round, whether it was kept, the full θ, and its
+    one-step error on the fit trajectories over the model's of that round (None when its gain was
+    not high enough to ask)."""
 
     round: int
     name: str
@@ -106,21 +113,7 @@ class Trial:
     gain: float
     kept: bool
     theta: tuple[float, ...]
-
-
-@dataclass(frozen=True)
-class HeldScores:
-    """Per held-out trajectory ("t{k}"): one-step error Σ||r||² [m²], the objective's windowed error
-    [m²], and the open-loop drift [m] at the configured time."""
-
-    one_step: dict[str, float]
-    windows: dict[str, float]
-    drift: dict[str, float]
-
-    def totals(self) -> dict[str, float]:
-        """Summed one-step and windowed errors, and the mean drift."""
-        return {"one_step": sum(self.one_step.values()), "windows": sum(self.windows.values()),
-                "drift": float(np.mean(list(self.drift.values()))) if self.drift else float("nan")}
+    one_step: float | None = None
 
 
 @dataclass
@@ -152,8 +145,9 @@ class MismatchReport:
         lines = ["mismatch stage: " + (", ".join(e.name for e in self.effects) or "no component kept")]
         for t in self.trials:
             size = ", ".join(f"{k}={v:.4g}" for k, v in t.values.items()) or "no parameter"
+            one = f"  one-step {t.one_step:.2f}x" if t.one_step is not None else ""
             lines.append(f"  round {t.round}: {t.name:26s} fit error {t.fit_error:.4g} gain {t.gain:6.1%}  {size}"
-                         + ("  <- kept" if t.kept else ""))
+                         + one + ("  <- kept" if t.kept else ""))
         b, a, r = self.before.totals(), self.after.totals(), self.ratios()
         scope = "in-sample (nothing held out)" if self.in_sample else "held-out"
         lines.append(f"  {scope} one-step error {b['one_step']:.4g} -> {a['one_step']:.4g} ({r['one_step']:.2f}x); "
@@ -183,83 +177,12 @@ class MismatchReport:
 
 
 
-def where_text(where: dict[str, Any]) -> str:
-    """One line from :func:`localize`: shares by phase, the top nodes, shares by axis and frequency band."""
-    phases = ", ".join(f"{k} {v['share']:.0%}" for k, v in where["phases"].items())
-    axes = ", ".join(f"{k} {v:.0%}" for k, v in where["axis_share"].items())
-    bands = ", ".join(f"{k} {v:.0%}" for k, v in where["frequency_share"].items())
-    return f"by phase {phases}; nodes {where['top_nodes']}; by axis {axes}; by frequency {bands}"
-
-
 def superseded(effects: Sequence[Effect], kept: Sequence[Effect]) -> list[Effect]:
     """``effects`` without those that replace a component one of ``kept`` already replaced
     (COMPONENT_GROUPS) or that are already in ``kept``."""
     taken = {e.name for e in kept}
     blocked = set(taken).union(*(group for group in COMPONENT_GROUPS if group & taken))
     return [e for e in effects if e.name not in blocked]
-
-
-def _variant(objective: TrajectoryObjective, trajectories: Sequence[int], horizon: int | str) -> TrajectoryObjective:
-    """A serial objective with ``objective``'s model and options on some of its trajectories at ``horizon``."""
-    data = [objective.trajectories[k] for k in trajectories]
-    return TrajectoryObjective(data, horizon=horizon, loss="squared", options=objective.options,
-                               effects=objective.effects, actuators=objective.actuators, n_workers=0)
-
-
-def _drift(objective: TrajectoryObjective, theta: np.ndarray, k: int, at: float) -> float:
-    """Mean node distance [m] between a free rollout from the first sample and trajectory k at ``at`` s
-    after its start (the last sample if shorter); inf if the rollout diverges."""
-    ds = objective.trajectories[k]
-    try:
-        pred = _variant(objective, [k], "rollout").predictions(theta)[0].values
-    except PhysicsError:   # a diverging simulation: the drift is unbounded
-        return float("inf")
-    t = np.asarray(ds["time"].values, float)
-    i = int(np.argmin(np.abs(t - t[0] - at)))
-    return float(np.linalg.norm(pred[i] - np.asarray(ds["nodes"].values[i], float), axis=1).mean())
-
-
-def held_scores(objective: TrajectoryObjective, theta: np.ndarray, held: Sequence[int],
-                drift_time: float) -> HeldScores:
-    """One-step error, windowed error (``objective``'s horizon) and drift at ``drift_time`` [s] of the
-    trajectories ``held`` (indices into ``objective.trajectories``) at θ (D,)."""
-    one, windows, drift = {}, {}, {}
-    for k in held:
-        key = f"t{k}"
-        one[key] = float(_variant(objective, [k], 1)(theta))
-        windows[key] = float(_variant(objective, [k], objective.horizon)(theta))
-        drift[key] = _drift(objective, theta, k, drift_time)
-    return HeldScores(one, windows, drift)
-
-
-def _band_shares(residual: np.ndarray, interval: float) -> dict[str, float]:
-    """Share of Σ|R(f)|² per band of FREQUENCY_BANDS, R the FFT over time of the one-step residual (T x m)."""
-    r = np.nan_to_num(np.asarray(residual, float), nan=0.0)
-    power = (np.abs(np.fft.rfft(r - r.mean(axis=0), axis=0)) ** 2).sum(axis=1)
-    freq = np.fft.rfftfreq(len(r), d=interval)
-    edges = [*FREQUENCY_BANDS, np.inf]
-    total = float(power.sum())
-    out = {}
-    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
-        label = f"{lo:g}-{hi:g} Hz" if np.isfinite(hi) else f">{lo:g} Hz"
-        out[label] = float(power[(freq >= lo) & (freq < hi)].sum()) / total if total > 0 else float("nan")
-    return out
-
-
-def localize(objective: TrajectoryObjective, theta: np.ndarray, trajectories: Sequence[int]) -> dict[str, Any]:
-    """Where the one-step residual of ``trajectories`` lives at θ: criticism.residuals' summary (shares
-    by phase, top nodes, shares by axis) plus ``frequency_share``, the share of its power per band
-    of FREQUENCY_BANDS (averaged over the trajectories)."""
-    one = _variant(objective, trajectories, 1)
-    preds = one.predictions(theta)
-    summary = residual_summary(residual_dataset(one, theta, predictions=preds))
-    shares = []
-    for ds, pred in zip(one.trajectories, preds, strict=True):
-        r = (np.asarray(ds["nodes"].values, float) - np.asarray(pred.values, float)).reshape(len(pred), 36)
-        t = np.asarray(ds["time"].values, float)
-        shares.append(_band_shares(r[1:], float(t[1] - t[0])))
-    summary["frequency_share"] = {k: float(np.mean([s[k] for s in shares])) for k in shares[0]}
-    return summary
 
 
 def measured_rod_length(objective: TrajectoryObjective) -> float:
@@ -340,6 +263,24 @@ def _round(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], error: 
     return out
 
 
+def _choose(model: TrajectoryObjective, theta: np.ndarray, tried: Sequence[tuple[Trial, TrajectoryObjective]],
+            config: MismatchConfig) -> tuple[int | None, dict[int, float]]:
+    """The index into ``tried`` of the component kept (module docstring, step 3; None: none) and the
+    one-step ratios asked on the way, E1_F(extended at its θ) / E1_F(``model`` at θ (D,))."""
+    everything = range(len(model.trajectories))
+    before: float | None = None
+    rises: dict[int, float] = {}
+    for j in sorted(range(len(tried)), key=lambda j: -tried[j][0].gain):
+        trial, extended = tried[j]
+        if trial.gain < config.min_gain:
+            break
+        before = one_step_error(model, theta, everything) if before is None else before
+        rises[j] = one_step_error(extended, np.asarray(trial.theta, float), everything) / max(before, 1e-300)
+        if rises[j] <= 1.0 + config.max_one_step_rise:
+            return j, rises
+    return None, rises
+
+
 def _fit_view(objective: TrajectoryObjective, fit: np.ndarray) -> tuple[TrajectoryObjective, np.ndarray, list[int]]:
     """The objective on the trajectories with a fit segment only (a re-tuning then never simulates a
     held-out flop), the fit mask over its segments, and the trajectories scored in-sample."""
@@ -379,10 +320,9 @@ def absorb_mismatch(objective: TrajectoryObjective, fit: np.ndarray | Sequence[b
                        config, k, progress)
         if not tried:
             break
-        best = max(range(len(tried)), key=lambda j: tried[j][0].gain)
-        keep = tried[best][0].gain >= config.min_gain
-        trials += [replace(t, kept=keep and j == best) for j, (t, _) in enumerate(tried)]
-        if not keep:
+        best, rises = _choose(model, current, tried, config)
+        trials += [replace(t, kept=j == best, one_step=rises.get(j)) for j, (t, _) in enumerate(tried)]
+        if best is None:
             break
         trial, model = tried[best]
         current, error = np.asarray(trial.theta, float), trial.fit_error

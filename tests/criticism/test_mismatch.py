@@ -20,12 +20,13 @@ import pytest
 
 from belief.least_squares import LeastSquaresConfig
 from criticism.diagnose import split_masks
-from criticism.mismatch import MismatchConfig, absorb_mismatch, superseded
+from criticism.mismatch import MismatchConfig, Trial, _choose, absorb_mismatch, superseded
 from physics import FlopController, TrajectoryObjective, load_trajectory, simulate
 from physics.actuators import MotorGains, tension_limited_step
 from physics.effects import (
     CableAnchors,
     CylinderCaps,
+    EndCapRadius,
     FixedCableAnchors,
     RateLimitedActuation,
     RollingResistance,
@@ -106,6 +107,26 @@ def test_superseded_drops_other_actuators() -> None:
     assert MotorGains().kp > 0       # the motor model stays the default actuator
     anchors = superseded([FixedCableAnchors(), CylinderCaps()], [CableAnchors()])
     assert [e.name for e in anchors] == ["cylinder_caps"]     # one anchor law in a model
+
+
+def test_stage_refuses_a_component_whose_local_law_the_data_contradict() -> None:
+    """A component with the larger windowed gain whose one-step error on the fit flops rises past
+    ``max_one_step_rise`` (end caps 2 cm smaller than the robot's: every resting node sinks) is
+    passed over for the next by gain (anchors at offset 0: the same model, ratio 1); a trial under
+    ``min_gain`` is never asked; with the guard wide open the larger gain wins."""
+    data = [simulate(controller=FlopController(heading=0.3), duration=0.4, noise=2e-4, seed=0)]
+    model = TrajectoryObjective(data, horizon=25, loss="squared", n_workers=0)
+    theta = model.space.nominal
+    tried = []
+    trials = ((EndCapRadius(), -0.02, 0.5), (CableAnchors(), 0.0, 0.2), (RollingResistance(), 0.0, 0.05))
+    for effect, value, gain in trials:
+        extended = model.with_effects((effect,))
+        trial = Trial(1, effect.name, {}, 1.0, gain, False, tuple(np.r_[theta, value]))
+        tried.append((trial, extended))
+    kept, rises = _choose(model, theta, tried, MismatchConfig())
+    assert kept == 1 and set(rises) == {0, 1}, rises
+    assert rises[0] > 1.1 and rises[1] == pytest.approx(1.0, abs=1e-9), rises
+    assert _choose(model, theta, tried, MismatchConfig(max_one_step_rise=1e6))[0] == 0
 
 
 def _stage(data: list, components: tuple, rounds: int):

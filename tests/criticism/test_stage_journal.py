@@ -11,7 +11,8 @@ import pytest
 from belief.bounds import AtBound
 from belief.journal import JournalMismatchError
 from criticism import stage_journal
-from criticism.mismatch import HeldScores, MismatchConfig, MismatchReport, Trial
+from criticism.held_out import HeldScores
+from criticism.mismatch import MismatchConfig, MismatchReport, Trial
 from criticism.stage_journal import STAGE_JOURNAL, journalled_stage
 from physics import FlopController, TrajectoryObjective, simulate
 from physics.effects import CableAnchors, TensionLimitedActuation
