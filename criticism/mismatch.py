@@ -176,7 +176,6 @@ class MismatchReport:
                    record["where_after"], tuple(AtBound(**b) for b in record["at_bounds"]), record["in_sample"])
 
 
-
 def superseded(effects: Sequence[Effect], kept: Sequence[Effect]) -> list[Effect]:
     """``effects`` without those that replace a component one of ``kept`` already replaced
     (COMPONENT_GROUPS) or that are already in ``kept``."""
