@@ -34,29 +34,35 @@ class LeastSquaresConfig:
     """evaluations: most residual evaluations of trial points per run (each Jacobian costs k more,
     in one batch); step: the finite-difference step h in the unit box; tolerance: stop when a step
     lowers E_F by less than this fraction (scipy's ftol); rounds: most runs, each from the best
-    point of the last (a fresh trust region); converged: no further run once a run lowered E_F by
-    less than this fraction of its start."""
+    point of the last (a fresh trust region); converged: a run that lowered E_F by less than this
+    fraction of its start has stalled; patience: no further run after this many stalled runs in a
+    row. On an error surface with steps (a command delay acts in whole physics steps) one run can
+    stall on a poor first Jacobian and the next, from a fresh trust region, still move far."""
 
     evaluations: int = 12
     step: float = 0.01
     tolerance: float = 1e-3
     rounds: int = 1
     converged: float = 0.01
+    patience: int = 1
 
     def __post_init__(self) -> None:
         if self.evaluations < 1 or not (0 < self.step < 0.5) or not (0 < self.tolerance < 1):
             raise BeliefError(f"LeastSquaresConfig needs evaluations >= 1, 0 < step < 0.5 and 0 < tolerance < 1, "
                               f"got {self.evaluations}, {self.step}, {self.tolerance}.")
-        if self.rounds < 1 or not (0 <= self.converged < 1):
-            raise BeliefError(f"LeastSquaresConfig needs rounds >= 1 and 0 <= converged < 1, got {self.rounds}, "
-                              f"{self.converged}.")
+        if self.rounds < 1 or not (0 <= self.converged < 1) or self.patience < 1:
+            raise BeliefError(f"LeastSquaresConfig needs rounds >= 1, 0 <= converged < 1 and patience >= 1, got "
+                              f"{self.rounds}, {self.converged}, {self.patience}.")
 
     def record(self) -> dict[str, float | int]:
         """The settings that decide the result, for a journal's fingerprint. One round is the plain run,
-        and ``converged`` acts only between rounds: with one round both are left out."""
+        and ``converged`` and ``patience`` act only between rounds: with one round they are left out,
+        and ``patience`` 1 (stop at the first stalled run) is left out too."""
         settings = vars(self).copy()
         if self.rounds == 1:
             del settings["rounds"], settings["converged"]
+        if self.rounds == 1 or self.patience == 1:
+            del settings["patience"]
         return settings
 
 
@@ -140,7 +146,8 @@ def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask
            config: LeastSquaresConfig = LeastSquaresConfig()) -> LocalFit:
     """Refine θ[indices] (θ (D,)) on the segments ``mask`` (S,) by bounded least squares (module
     docstring) from the objective's ``residuals_batch``: up to ``config.rounds`` runs, the next
-    while the last lowered E_F by more than ``config.converged`` of its start. Raises BeliefError
+    unless the last ``config.patience`` runs each lowered E_F by at most ``config.converged`` of
+    their start. Raises BeliefError
     if the simulation at θ itself fails, NoResidualsError if the objective has no residuals."""
     theta = np.asarray(theta, float).copy()
     mask = np.asarray(mask, bool)
@@ -152,12 +159,14 @@ def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask
     problem = _Problem(objective, theta, index, mask, config.step)
     u = np.clip(problem.unit(theta[index]), 0.0, 1.0)
     start_error = error = float((problem.fun(u) ** 2).sum())
+    stalled = 0
     for _ in range(config.rounds):
         scipy_least_squares(problem.fun, u, jac=problem.jac, bounds=(0.0, 1.0), method="trf", x_scale=1.0,
                             ftol=config.tolerance, xtol=1e-4, gtol=1e-8, max_nfev=config.evaluations)
         u, residuals = problem.best()
         last, error = error, float((problem.fun(u) ** 2).sum())
-        if last - error <= config.converged * last:
+        stalled = stalled + 1 if last - error <= config.converged * last else 0
+        if stalled >= config.patience:
             break
     theta[index] = problem.thetas(u[None])[0, index]
     parts = np.array([np.nansum(np.asarray(r) ** 2) for r in residuals])

@@ -172,10 +172,10 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flo
 
 def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
             mismatch: bool = False, flops_version: int = 1, read_contact: bool = False,
-            journals: Path | None = None, rounds: int = DEFAULT_ROUNDS) -> dict:
+            journals: Path | None = None, rounds: int = DEFAULT_ROUNDS, patience: int = 1) -> dict:
     """The row of one scenario and seed; diagnose journals its stage and evaluations in a folder of
-    ``journals`` named after the run (None: not journalled). ``rounds``: of criticism's least-squares
-    refinements (belief.least_squares.LeastSquaresConfig.rounds)."""
+    ``journals`` named after the run (None: not journalled). ``rounds``, ``patience``: of criticism's
+    least-squares refinements (belief.least_squares.LeastSquaresConfig)."""
     run = (f"{source}-{name}-seed{seed}-{held_out}-b{budget}-v{flops_version}{'-mismatch' if mismatch else ''}"
            f"{'-contact' if read_contact else ''}")
     folder = None if journals is None else journals / run
@@ -184,20 +184,22 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
         row = diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
                            passes=max(1, len(truth_names)), read_contact=read_contact, journal_dir=folder,
-                           rounds=rounds)
+                           rounds=rounds, patience=patience)
         return {**row, "flops_version": flops_version, **({"engine": "mujoco"} if source == "mujoco" else {})}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
     row = diagnose_row(name, seed, budget, data, [e.name for e in effects],
                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
-                       mismatch=mismatch, read_contact=read_contact, journal_dir=folder, rounds=rounds)
+                       mismatch=mismatch, read_contact=read_contact, journal_dir=folder, rounds=rounds,
+                       patience=patience)
     return {**row, "true_configs": [e.config() for e in effects]}
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
                  held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None,
-                 read_contact: bool = False, journal_dir: Path | None = None, rounds: int = DEFAULT_ROUNDS) -> dict:
+                 read_contact: bool = False, journal_dir: Path | None = None, rounds: int = DEFAULT_ROUNDS,
+                 patience: int = 1) -> dict:
     """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``, the
     contact read from the flops first if ``read_contact``) in ``passes`` passes (default: 2 for a
     mix, else 1); the benchmark's row (JSON-ready)."""
@@ -205,7 +207,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
     start = time.perf_counter()
     config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None,
                             read_contact=read_contact,
-                            criticism=CriticismConfig(local=LeastSquaresConfig(rounds=rounds)))
+                            criticism=CriticismConfig(local=LeastSquaresConfig(rounds=rounds, patience=patience)))
     d = diagnose(data, held_out=[2], config=config, progress=False, journal_dir=journal_dir)
     first = d.passes[0].criticism
     top = first.ranking[0] if first.ranking else None
@@ -227,7 +229,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "estimates": d.passes[0].estimates(),
            "stage": None if d.mismatch is None else {"kept": [e.name for e in d.mismatch.effects],
                                                      "ratios": d.mismatch.ratios()},
-           "read_contact": read_contact, "rounds": rounds,
+           "read_contact": read_contact, "rounds": rounds, **({"patience": patience} if patience != 1 else {}),
            "contact": None if d.contact is None else d.contact.as_dict(),
            "revisits": [p.revisit.as_dict() for p in d.passes if p.revisit is not None]}
     last = [p for p in d.passes if p.held_after is not None]
@@ -237,10 +239,10 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
 
 def _key(row: dict) -> tuple:
     """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact
-    read, engine, least-squares rounds: 1 in rows saved before they were recorded)."""
+    read, engine, least-squares rounds: 1 in rows saved before they were recorded, and patience)."""
     return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"),
             row.get("flops_version", 1), row.get("read_contact", False), row.get("engine", "bullet"),
-            row.get("rounds", 1))
+            row.get("rounds", 1), row.get("patience", 1))
 
 
 def latest_rows(rows: list[dict]) -> list[dict]:
@@ -278,6 +280,8 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--rounds", type=int, default=DEFAULT_ROUNDS, help="most runs of each of criticism's "
                     f"least-squares refinements (belief.least_squares; default {DEFAULT_ROUNDS}, CriticismConfig's; "
                     "rows without a rounds field made one)")
+    ap.add_argument("--patience", type=int, default=1, help="stop those refinements after this many runs in a "
+                    "row that each lowered the fit error by under 1 %% (LeastSquaresConfig.patience; default 1)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     return ap
@@ -304,14 +308,16 @@ def main(argv: list[str] | None = None) -> int:
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     protocol = _key({"scenario": None, "seed": None, "held_out": args.held_out, "budget": args.budget,
                      "flops_version": args.flops_version, "read_contact": args.read_contact,
-                     "engine": FOREIGN.get(args.source, "bullet"), "rounds": args.rounds})[2:]
+                     "engine": FOREIGN.get(args.source, "bullet"), "rounds": args.rounds,
+                     "patience": args.patience})[2:]
     rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds and _key(r)[2:] == protocol]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
             if (name, seed, *protocol) in done:
                 continue
             row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version,
-                             args.read_contact, Path(args.journals) if args.journals else None, args.rounds),
+                             args.read_contact, Path(args.journals) if args.journals else None, args.rounds,
+                             args.patience),
                    "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:

@@ -12,9 +12,12 @@ Per data set and seed (flops version 2, 0.2 mm noise; fit on ``flop_0`` and ``fl
    the base is the augmented model re-tuned on the fit flops (criticism.polish), as in
    benchmarks/effects_oracle.py;
 2. the effect is screened (criticism.screening.fit_effect, θ held), then refined jointly
-   ``--rounds`` times.
+   ``--rounds`` times; with ``--start V`` the effect's (single) parameter is set to V after the
+   screening and the joint refinement starts there, so two starts can be compared: a fit that
+   ends lower from another start was stuck where criticism's start left it.
 
     .venv/bin/python benchmarks/joint_rounds.py --dataset drag --seed 0 --effect viscous_drag --rounds 3
+    .venv/bin/python benchmarks/joint_rounds.py --dataset actuator_delay --seed 6 --effect actuator_delay --start 0.05
 """
 from __future__ import annotations
 
@@ -40,6 +43,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--journals", default=".cache/oracle", help="the stage's journal folder per data set and seed "
                     "(benchmarks/effects_oracle.py writes the same)")
+    ap.add_argument("--start", type=float, help="the effect's size the joint refinement starts from "
+                    "(default: the screened one); effects with one parameter only")
     args = ap.parse_args(argv)
     config, start = CriticismConfig(local=LeastSquaresConfig(rounds=1)), time.perf_counter()
     s = staged(args.dataset, args.seed, Path(args.journals), config)
@@ -48,6 +53,12 @@ def main(argv: list[str] | None = None) -> int:
         extended, theta, indices = effect_start(s.model, s.base.theta, EFFECT_TYPES[args.effect]())
         theta, parts = fit_effect(extended, theta, indices, s.fit, grid=config.grid, refine=config.refine)
         _report("screened", extended.space.names, theta, indices, parts, s.fit, s.held, start)
+        if args.start is not None:
+            if len(indices) != 1:
+                raise SystemExit(f"--start needs an effect with one parameter; {args.effect} has {len(indices)}.")
+            theta[indices[0]] = args.start
+            _report("start", extended.space.names, theta, indices, extended.evaluate_parts(theta), s.fit, s.held,
+                    start)
         for k in range(args.rounds):
             joint = polish(extended, theta, s.fit, config)
             theta = joint.theta

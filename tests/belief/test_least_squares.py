@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.optimize import least_squares as scipy_least_squares
 from scipy.optimize import lsq_linear
 
 from belief.errors import BeliefError
@@ -96,10 +97,35 @@ def test_further_rounds_go_on_from_the_best_point_and_stop_once_a_round_gains_li
     assert settled[0].evaluations == settled[1].evaluations     # the second round gains nothing: no third
 
 
+def test_patience_runs_on_after_a_stalled_run_and_stops_after_that_many_in_a_row(monkeypatch):
+    import belief.least_squares as module
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return scipy_least_squares(*args, **kwargs)
+
+    monkeypatch.setattr(module, "scipy_least_squares", counted)
+    linear, _ = _problem(0)
+    runs = {}
+    for patience, rounds in ((1, 6), (2, 2), (2, 6), (3, 6)):
+        calls.clear()
+        refine(linear, np.full(4, 0.5), range(4), [True, True],
+               LeastSquaresConfig(evaluations=20, rounds=rounds, patience=patience))
+        runs[patience, rounds] = len(calls)
+    # the first run solves the linear problem; each later one stalls
+    assert runs == {(1, 6): 2, (2, 2): 2, (2, 6): 3, (3, 6): 4}, runs
+    with pytest.raises(BeliefError, match="patience"):
+        LeastSquaresConfig(rounds=3, patience=0)
+
+
 def test_a_journal_records_the_rounds_only_when_there_are_several():
     assert set(LeastSquaresConfig().record()) == {"evaluations", "step", "tolerance"}
     assert LeastSquaresConfig(rounds=3, converged=0.02).record()["converged"] == 0.02
     assert LeastSquaresConfig(rounds=3).record() != LeastSquaresConfig(rounds=4).record()
+    assert LeastSquaresConfig(rounds=3, patience=1).record() == LeastSquaresConfig(rounds=3).record()
+    assert LeastSquaresConfig(rounds=3, patience=2).record()["patience"] == 2
+    assert "patience" not in LeastSquaresConfig(rounds=1, patience=2).record()
 
 
 def test_refine_refuses_a_failing_start_and_bad_settings():
