@@ -41,15 +41,15 @@ FOLDER = re.compile(r"testbed-(?P<name>[a-z_+]+?)-seed(?P<seed>\d+)-")
 
 def _objective(name: str, seed: int, fingerprint: dict) -> TrajectoryObjective:
     """The stage's objective over flop_0, flop_1 and heldout_0 of the testbed data set, with the
-    effects the stage started from; refuses data that are not the journal's."""
+    effects the stage started from; refuses one whose fingerprint is not the journal's."""
     from testbed.datasets import cached_dataset
     files = cached_dataset(name, seed, noise=0.0002, version=2)
     data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
     start = tuple(effect_from_config(c) for c in fingerprint["objective"]["effects"])
     objective = TrajectoryObjective(data, horizon=25, loss="squared", windows=3, effects=start, n_workers=0)
-    if objective.fingerprint()["data_sha256"] != fingerprint["objective"]["data_sha256"]:
+    if json.dumps(objective.fingerprint(), sort_keys=True) != json.dumps(fingerprint["objective"], sort_keys=True):
         objective.close()
-        raise SystemExit(f"the flops of {name} seed {seed} are not the ones the journal's stage saw.")
+        raise SystemExit(f"{name} seed {seed}: the flops or the objective are not the ones the journal's stage saw.")
     return objective
 
 
