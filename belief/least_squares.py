@@ -147,8 +147,8 @@ def refine(objective: Objective, theta: np.ndarray, indices: Sequence[int], mask
     """Refine θ[indices] (θ (D,)) on the segments ``mask`` (S,) by bounded least squares (module
     docstring) from the objective's ``residuals_batch``: up to ``config.rounds`` runs, the next
     unless the last ``config.patience`` runs each lowered E_F by at most ``config.converged`` of
-    their start. Raises BeliefError
-    if the simulation at θ itself fails, NoResidualsError if the objective has no residuals."""
+    their start. Raises BeliefError if the simulation at θ itself fails, NoResidualsError if the
+    objective has no residuals."""
     theta = np.asarray(theta, float).copy()
     mask = np.asarray(mask, bool)
     index = [int(j) for j in indices]

@@ -33,6 +33,7 @@ from jsonl_rows import read_rows
 from tqdm.auto import tqdm
 
 from criticism.held_out import one_step_error
+from criticism.mismatch import in_order
 from physics import TrajectoryObjective, load_trajectory
 from physics.effects import Effect, effect_from_config
 
@@ -75,8 +76,7 @@ def run_one(path: Path) -> dict:
         kept = []
         for trial in (t for t in report["trials"] if t["kept"]):
             added = next(effect_from_config(c) for c in report["effects"] if c["effect"] == trial["name"])
-            effects = tuple(sorted((*effects, added), key=lambda e: order.index(e.name) if e.name in order
-                                   else len(order)))
+            effects = in_order((*effects, added), order)
             theta = np.asarray(trial["theta"], float)
             fit1, held1 = _scores(objective, effects, theta)
             kept.append({"name": trial["name"], "round": trial["round"], "gain": trial["gain"],

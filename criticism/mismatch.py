@@ -49,7 +49,8 @@ from physics.effects import CableAnchors, EndCapRadius, RollingResistance, Tensi
 from physics.effects.base import Effect
 from physics.trajectory_objective import TrajectoryObjective
 
-__all__ = ["MismatchConfig", "Trial", "MismatchReport", "absorb_mismatch", "superseded", "measured_rod_length"]
+__all__ = ["MismatchConfig", "Trial", "MismatchReport", "absorb_mismatch", "superseded", "in_order",
+           "measured_rod_length"]
 
 #: Effects that replace the same component: at most one of each group in a model.
 COMPONENT_GROUPS: tuple[frozenset[str], ...] = (frozenset({"rate_limited_actuator", "tension_limited_actuator"}),
@@ -209,6 +210,13 @@ def _retune(objective: TrajectoryObjective, theta: np.ndarray, fit: np.ndarray,
     return np.asarray(result.theta, float), float(result.error)
 
 
+def in_order(effects: Sequence[Effect], order: Sequence[str]) -> tuple[Effect, ...]:
+    """``effects`` sorted by their names' place in ``order`` (the stage's components), those not in
+    it last in their own order: an actuator replacement comes before the effects that wrap it."""
+    rank = {name: k for k, name in enumerate(order)}
+    return tuple(sorted(effects, key=lambda e: rank.get(e.name, len(rank))))
+
+
 def _extend(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], effect: Effect, order: Sequence[str],
             fit: np.ndarray) -> tuple[TrajectoryObjective, np.ndarray]:
     """``objective`` with ``effect`` added, its effects sorted by their place in ``order`` (an
@@ -217,9 +225,7 @@ def _extend(objective: TrajectoryObjective, thetas: Sequence[np.ndarray], effect
     their data-read start, Effect.start) the one with the lowest error on the ``fit`` segments. The model's
     re-tuned θ was tuned for the component being replaced (a motor model's parameters stand in
     for what it lacks), so the stage's own start θ0 is the other candidate."""
-    rank = {name: k for k, name in enumerate(order)}
-    effects = sorted((*objective.effects, effect), key=lambda e: rank.get(e.name, len(rank)))
-    extended = objective.with_effects(tuple(effects))
+    extended = objective.with_effects(in_order((*objective.effects, effect), order))
     starts = []
     for theta in thetas:
         values = dict(zip(objective.space.names, np.asarray(theta, float).tolist(), strict=True))
