@@ -79,9 +79,11 @@ PLACED = {"point_mass_elsewhere": PointMass(rod=3, position=-0.6)}
 TESTBED_TRUTH: dict[str, tuple[str, ...]] = {
     "nominal": (), "slope": ("ground_slope",), "marker_offset": ("sensor_bias",), "drag": ("viscous_drag",),
     "actuator_delay": ("actuator_delay",), "hysteresis": ("cable_hysteresis",), "extra_mass": ("point_mass",),
-    "ground_viscosity": ("ground_viscosity",), "slope+delay": ("ground_slope", "actuator_delay")}
+    "ground_viscosity": ("ground_viscosity",), "slope+delay": ("ground_slope", "actuator_delay"),
+    "drag+hysteresis": ("viscous_drag", "cable_hysteresis")}
 #: the testbed's effect field behind each catalog effect of a testbed mix (to switch it off)
-TESTBED_FIELDS = {"ground_slope": ("slope",), "actuator_delay": ("actuator_delay",)}
+TESTBED_FIELDS = {"ground_slope": ("slope",), "actuator_delay": ("actuator_delay",), "viscous_drag": ("drag",),
+                  "cable_hysteresis": ("hysteresis",)}
 #: --source of a foreign robot -> its engine (testbed.datasets.ENGINES)
 FOREIGN = {"testbed": "bullet", "mujoco": "mujoco"}
 

@@ -36,7 +36,7 @@ from testbed.params import NOMINAL, draw_theta
 from testbed.record import Observation, record_flop, to_dataset
 from testbed.robot import TestbedRobot
 
-__all__ = ["DATASETS", "ENGINES", "FLOP_VERSIONS", "Robot", "robot_for", "flops_for", "make_dataset",
+__all__ = ["DATASETS", "STREAMS", "ENGINES", "FLOP_VERSIONS", "Robot", "robot_for", "flops_for", "make_dataset",
            "cached_dataset", "build_robot", "SETTLE_S"]
 
 SETTLE_S = 3.0
@@ -76,14 +76,20 @@ DATASETS: dict[str, tuple[bool, Callable[[np.random.Generator], Effects]]] = {
     "extra_mass": (False, _mass),
     "ground_viscosity": (False, lambda rng: Effects(ground_viscosity=20.0)),
     "slope+delay": (False, _slope_and_delay),
+    "drag+hysteresis": (False, lambda rng: Effects(drag=3.0, hysteresis=0.3)),
 }
+#: data set -> the index of its generator's stream, [seed, index]; a new data set takes the next
+#: index, so adding one changes no other data set's robot, flops or noise
+STREAMS = {name: k for k, name in enumerate((
+    "actuator_delay", "drag", "extra_mass", "ground_viscosity", "hysteresis", "marker_offset", "nominal",
+    "perturbed", "slope", "slope+delay", "drag+hysteresis"))}
 
 
 def robot_for(name: str, seed: int) -> tuple[Robot, np.random.Generator]:
     """The robot of data set ``name`` at ``seed`` and the generator that goes on to draw the rest."""
     if name not in DATASETS:
         raise KeyError(f"unknown testbed data set {name!r}; choose from {sorted(DATASETS)}.")
-    rng = np.random.default_rng([seed, sorted(DATASETS).index(name)])
+    rng = np.random.default_rng([seed, STREAMS[name]])
     perturbed, effects = DATASETS[name]
     theta = draw_theta(rng) if perturbed else dict(NOMINAL)
     return Robot(theta, effects(rng)), rng

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from physics import load_trajectory
 from testbed.cable_robot import CableRobot
 from testbed.controller import Flop
-from testbed.datasets import Robot, build_robot, flops_for, make_dataset, robot_for
+from testbed.datasets import DATASETS, STREAMS, Robot, build_robot, flops_for, make_dataset, robot_for
 from testbed.effects import Effects
 from testbed.params import NOMINAL, closed_faces
 from testbed.record import record_flop
@@ -274,3 +274,13 @@ def test_the_command_line_passes_the_engine_and_folders_keep_engines_apart(monke
     assert out != cli.default_folder("nominal", 2) and out == cli.default_folder("nominal", 2, "mujoco")
     with pytest.raises(SystemExit):
         cli.main(["dataset", "nominal", "--engine", "ode"])
+
+
+def test_each_data_set_draws_from_its_own_stream_and_a_new_one_moves_none():
+    assert sorted(STREAMS) == sorted(DATASETS)
+    assert len(set(STREAMS.values())) == len(STREAMS)
+    # the data sets before drag+hysteresis keep the stream they were drawn from: their sorted position
+    older = sorted(n for n in DATASETS if n != "drag+hysteresis")
+    assert [STREAMS[n] for n in older] == list(range(len(older)))
+    both = robot_for("drag+hysteresis", 0)[0].effects
+    assert (both.drag, both.hysteresis) == (3.0, 0.3)
