@@ -65,7 +65,7 @@ from effects_table import SIZES, print_rows, summarize
 from jsonl_rows import read_rows
 
 from belief.least_squares import LeastSquaresConfig
-from criticism import CriticismConfig, DiagnoseConfig, diagnose
+from criticism import CriticismConfig, DiagnoseConfig, Pass, diagnose
 from criticism.mismatch import MismatchConfig
 from physics import FlopController, ParameterSpace, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, model_space
@@ -233,10 +233,21 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
                                                      "ratios": d.mismatch.ratios()},
            "read_contact": read_contact, "rounds": rounds, **({"patience": patience} if patience != 1 else {}),
            "contact": None if d.contact is None else d.contact.as_dict(),
-           "revisits": [p.revisit.as_dict() for p in d.passes if p.revisit is not None]}
+           "revisits": [p.revisit.as_dict() for p in d.passes if p.revisit is not None],
+           "passes": [_pass_record(p) for p in d.passes]}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
     return row
+
+
+def _pass_record(p: Pass) -> dict:
+    """One pass of a diagnosis: the effect it found (None), with the share of the held-out error it
+    explained, its evidence and fitted values, the held-out reduction after re-identifying with it
+    and its re-identified estimates."""
+    found = p.found
+    return {"found": found.name if found else None, "explained": found.explained if found else None,
+            "evidence": found.evidence if found else None, "values": found.values if found else None,
+            "reduction": p.reduction, "estimates": p.estimates() if found else {}}
 
 
 def _key(row: dict) -> tuple:
