@@ -30,10 +30,12 @@ against the true one; for mixes how often the second effect is found on pass 2.
 
 ``--source testbed`` runs the same protocol on the foreign robot (benchmarks/testbed, Bullet): its
 data sets ``nominal`` (scenario ``none``), ``slope``, ``marker_offset``, ``drag``,
-``actuator_delay``, ``hysteresis``, ``extra_mass`` and ``ground_viscosity`` at nominal θ, with
-0.2 mm noise and 3 s flops: diagnose identifies on ``flop_0`` and ``flop_1`` and holds out
-``heldout_0`` (another actuation). The true effect counts as found when the catalog effect that
-models it (TESTBED_TRUTH) is; rows go to benchmarks/results/effects-testbed.jsonl.
+``actuator_delay``, ``hysteresis``, ``extra_mass`` and ``ground_viscosity``, and the pairs
+``slope+delay`` and ``drag+hysteresis`` (two passes), at nominal θ, with 0.2 mm noise and 3 s
+flops: diagnose identifies on ``flop_0`` and ``flop_1`` and holds out ``heldout_0`` (another
+actuation). The true effect counts as found when the catalog effect that models it
+(TESTBED_TRUTH) is; rows go to benchmarks/results/effects-testbed.jsonl and record each pass's
+finding under ``passes``.
 
     .venv/bin/python benchmarks/effects.py --source testbed --seeds 2
     .venv/bin/python benchmarks/effects.py --source testbed --mismatch --seeds 1   # mismatch stage first
