@@ -276,11 +276,17 @@ def test_the_command_line_passes_the_engine_and_folders_keep_engines_apart(monke
         cli.main(["dataset", "nominal", "--engine", "ode"])
 
 
+#: the data sets the saved rows were drawn from before streams were fixed, in their streams' order
+#: (then their sorted position among themselves)
+DRAWN_BEFORE_STREAMS = ("actuator_delay", "drag", "extra_mass", "ground_viscosity", "hysteresis", "marker_offset",
+                        "nominal", "perturbed", "slope", "slope+delay")
+
+
 def test_each_data_set_draws_from_its_own_stream_and_a_new_one_moves_none():
     assert sorted(STREAMS) == sorted(DATASETS)
     assert len(set(STREAMS.values())) == len(STREAMS)
-    # the data sets before drag+hysteresis keep the stream they were drawn from: their sorted position
-    older = sorted(n for n in DATASETS if n != "drag+hysteresis")
-    assert [STREAMS[n] for n in older] == list(range(len(older)))
+    assert [STREAMS[n] for n in DRAWN_BEFORE_STREAMS] == list(range(len(DRAWN_BEFORE_STREAMS)))
+    azimuth = np.random.default_rng([3, STREAMS["slope"]]).uniform(0, 2 * np.pi)
+    assert robot_for("slope", 3)[0].effects.slope_azimuth == azimuth
     both = robot_for("drag+hysteresis", 0)[0].effects
     assert (both.drag, both.hysteresis) == (3.0, 0.3)
