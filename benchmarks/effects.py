@@ -59,6 +59,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -74,6 +75,24 @@ from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, mod
 
 #: Criticism's default number of least-squares runs per refinement (CriticismConfig.local).
 DEFAULT_ROUNDS = CriticismConfig().local.rounds
+
+
+@dataclass(frozen=True)
+class Loop:
+    """The loop's settings a row records beside its protocol: criticism's least-squares ``rounds``
+    and ``patience`` (belief.least_squares.LeastSquaresConfig) and how many ranked effects get a
+    second look at the stage (``suspects``, criticism.revisit)."""
+
+    rounds: int = DEFAULT_ROUNDS
+    patience: int = 1
+    suspects: int = 1
+
+    def record(self) -> dict:
+        """The row's fields (patience and suspects only when not 1, as rows saved before them)."""
+        return {"rounds": self.rounds, **({"patience": self.patience} if self.patience != 1 else {}),
+                **({"suspects": self.suspects} if self.suspects != 1 else {})}
+
+
 MIXES = {"mix": ("ground_slope", "actuator_delay"), "actuator+contact": ("rate_limited_actuator", "end_cap_radius")}
 #: scenarios whose effect sits where the catalog's default instance does not: the search must find its place
 PLACED = {"point_mass_elsewhere": PointMass(rod=3, position=-0.6)}
@@ -176,10 +195,9 @@ def testbed_larger(name: str, seed: int, held: xr.Dataset, names: list[str], flo
 
 def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", source: str = "own",
             mismatch: bool = False, flops_version: int = 1, read_contact: bool = False,
-            journals: Path | None = None, rounds: int = DEFAULT_ROUNDS, patience: int = 1) -> dict:
+            journals: Path | None = None, loop: Loop = Loop()) -> dict:
     """The row of one scenario and seed; diagnose journals its stage and evaluations in a folder of
-    ``journals`` named after the run (None: not journalled). ``rounds``, ``patience``: of criticism's
-    least-squares refinements (belief.least_squares.LeastSquaresConfig)."""
+    ``journals`` named after the run (None: not journalled); ``loop``: the loop's settings (:class:`Loop`)."""
     run = (f"{source}-{name}-seed{seed}-{held_out}-b{budget}-v{flops_version}{'-mismatch' if mismatch else ''}"
            f"{'-contact' if read_contact else ''}")
     folder = None if journals is None else journals / run
@@ -188,30 +206,29 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
         row = diagnose_row(name, seed, budget, data, truth_names, true_values, held_out="testbed",
                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
                            passes=max(1, len(truth_names)), read_contact=read_contact, journal_dir=folder,
-                           rounds=rounds, patience=patience)
+                           loop=loop)
         return {**row, "flops_version": flops_version, **({"engine": "mujoco"} if source == "mujoco" else {})}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)
     row = diagnose_row(name, seed, budget, data, [e.name for e in effects],
                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
-                       mismatch=mismatch, read_contact=read_contact, journal_dir=folder, rounds=rounds,
-                       patience=patience)
+                       mismatch=mismatch, read_contact=read_contact, journal_dir=folder, loop=loop)
     return {**row, "true_configs": [e.config() for e in effects]}
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
                  held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None,
-                 read_contact: bool = False, journal_dir: Path | None = None, rounds: int = DEFAULT_ROUNDS,
-                 patience: int = 1) -> dict:
+                 read_contact: bool = False, journal_dir: Path | None = None, loop: Loop = Loop()) -> dict:
     """Diagnose on data[0:2], hold out data[2] (with the mismatch stage first if ``mismatch``, the
     contact read from the flops first if ``read_contact``) in ``passes`` passes (default: 2 for a
     mix, else 1); the benchmark's row (JSON-ready)."""
     passes = passes or (2 if name in MIXES else 1)
     start = time.perf_counter()
     config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None,
-                            read_contact=read_contact,
-                            criticism=CriticismConfig(local=LeastSquaresConfig(rounds=rounds, patience=patience)))
+                            read_contact=read_contact, suspects=loop.suspects,
+                            criticism=CriticismConfig(local=LeastSquaresConfig(rounds=loop.rounds,
+                                                                               patience=loop.patience)))
     d = diagnose(data, held_out=[2], config=config, progress=False, journal_dir=journal_dir)
     first = d.passes[0].criticism
     top = first.ranking[0] if first.ranking else None
@@ -233,9 +250,9 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "estimates": d.passes[0].estimates(),
            "stage": None if d.mismatch is None else {"kept": [e.name for e in d.mismatch.effects],
                                                      "ratios": d.mismatch.ratios()},
-           "read_contact": read_contact, "rounds": rounds, **({"patience": patience} if patience != 1 else {}),
+           "read_contact": read_contact, **loop.record(),
            "contact": None if d.contact is None else d.contact.as_dict(),
-           "revisits": [p.revisit.as_dict() for p in d.passes if p.revisit is not None],
+           "revisits": [look.as_dict() for p in d.passes for look in p.looks],
            "passes": [_pass_record(p) for p in d.passes]}
     last = [p for p in d.passes if p.held_after is not None]
     row["held_after"] = sum(last[-1].held_after.values()) if last else None
@@ -254,10 +271,11 @@ def _pass_record(p: Pass) -> dict:
 
 def _key(row: dict) -> tuple:
     """A run's identity: data set, seed and protocol (held-out flop, budget, flops version, contact
-    read, engine, least-squares rounds: 1 in rows saved before they were recorded, and patience)."""
+    read, engine, least-squares rounds: 1 in rows saved before they were recorded, patience and
+    suspects)."""
     return (row["scenario"], row["seed"], row.get("held_out", "heading"), row.get("budget"),
             row.get("flops_version", 1), row.get("read_contact", False), row.get("engine", "bullet"),
-            row.get("rounds", 1), row.get("patience", 1))
+            row.get("rounds", 1), row.get("patience", 1), row.get("suspects", 1))
 
 
 def latest_rows(rows: list[dict]) -> list[dict]:
@@ -297,6 +315,8 @@ def _parser() -> argparse.ArgumentParser:
                     "rows without a rounds field made one)")
     ap.add_argument("--patience", type=int, default=1, help="stop those refinements after this many runs in a "
                     "row that each lowered the fit error by under 1 %% (LeastSquaresConfig.patience; default 1)")
+    ap.add_argument("--suspects", type=int, default=1, help="how many of the ranking's best effects get a second "
+                    "look at the stage when none is found (DiagnoseConfig.suspects; default 1)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     return ap
@@ -321,18 +341,17 @@ def main(argv: list[str] | None = None) -> int:
     saved = read_rows(out)
     done = {_key(r) for r in saved}
     seeds = range(args.first_seed, args.first_seed + args.seeds)
+    loop = Loop(args.rounds, args.patience, args.suspects)
     protocol = _key({"scenario": None, "seed": None, "held_out": args.held_out, "budget": args.budget,
                      "flops_version": args.flops_version, "read_contact": args.read_contact,
-                     "engine": FOREIGN.get(args.source, "bullet"), "rounds": args.rounds,
-                     "patience": args.patience})[2:]
+                     "engine": FOREIGN.get(args.source, "bullet"), **loop.record()})[2:]
     rows = [r for r in saved if r["scenario"] in args.scenarios and r["seed"] in seeds and _key(r)[2:] == protocol]
     for seed in seeds:                  # seed by seed: a partial run covers every scenario
         for name in args.scenarios:
             if (name, seed, *protocol) in done:
                 continue
             row = {**run_one(name, seed, args.budget, args.held_out, args.source, args.mismatch, args.flops_version,
-                             args.read_contact, Path(args.journals) if args.journals else None, args.rounds,
-                             args.patience),
+                             args.read_contact, Path(args.journals) if args.journals else None, loop),
                    "budget": args.budget}
             rows.append(row)
             with out.open("a") as fh:

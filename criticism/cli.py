@@ -61,6 +61,10 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
                         f"last one's best point until a run gains less than 1 %% (default "
                         f"{CriticismConfig().local.rounds}; 1 is faster and stops short where an effect trades off "
                         "the model's parameters; docs/diagnose.md, step 2)")
+    p.add_argument("--suspects", type=int, default=1, metavar="N",
+                   help="when no effect is found, give the N best-ranked effects each a second look at the mismatch "
+                        "stage's rejected components and take the look that finds its effect with the most evidence "
+                        "(default 1: the top effect only; criticism.revisit)")
     p.add_argument("--read-contact", action="store_true",
                    help="first read the end caps' shape and the markers' offset from the flops (criticism.contact): "
                         "flat ends join the model, and an evident offset is added before identifying")
@@ -130,7 +134,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     effects = None if args.effects is None else list(effects_by_name(args.effects))
     config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates, horizon=args.horizon,
                             seed=args.seed, mismatch=None if args.no_mismatch else MismatchConfig(),
-                            read_contact=args.read_contact, criticism=_criticism(args.fit_rounds))
+                            read_contact=args.read_contact, criticism=_criticism(args.fit_rounds),
+                            suspects=args.suspects)
     _before_run(args, config)
     with output_dir(args.out):          # removed again if the run fails before writing into it
         diagnosis = run_with_journals(

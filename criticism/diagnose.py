@@ -55,7 +55,7 @@ from criticism.contact import ContactReading, read_contact
 from criticism.errors import CriticismError
 from criticism.mismatch import MismatchConfig, MismatchReport, superseded
 from criticism.residuals import residual_dataset, residual_summary
-from criticism.revisit import Revisit, revisit_stage
+from criticism.revisit import Revisit, chosen, revisit_stage
 from criticism.search import Criticism, CriticismConfig, criticize
 from criticism.stage_journal import journalled_stage
 from embeddings import Identity
@@ -83,7 +83,9 @@ class DiagnoseConfig:
     (criticism.contact; off by default: on the end caps it reads, the mismatch stage predicted
     held-out flops no better, docs/diagnose.md);
     revisit: when criticism ranks an effect first without finding it, try the components the stage
-    rejected again with that effect in the model (criticism.revisit)."""
+    rejected again with that effect in the model (criticism.revisit); suspects: how many of the
+    ranking's best effects get such a look (the pass takes the look that found its effect with the
+    most evidence, criticism.revisit.chosen)."""
 
     passes: int = 2
     budget: int = 40
@@ -97,11 +99,13 @@ class DiagnoseConfig:
     measure_at_rest: bool = True
     read_contact: bool = False
     revisit: bool = True
+    suspects: int = 1
 
     def __post_init__(self) -> None:
-        if self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1:
-            raise CriticismError("DiagnoseConfig needs passes >= 1, budget >= 2, candidates >= budget and "
-                                 "horizon >= 1.")
+        if (self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1
+                or self.suspects < 1):
+            raise CriticismError("DiagnoseConfig needs passes >= 1, budget >= 2, candidates >= budget, "
+                                 "horizon >= 1 and suspects >= 1.")
         if not (isinstance(self.bound_tolerance, (int, float)) and 0 <= self.bound_tolerance < 0.5):
             raise CriticismError(f"DiagnoseConfig.bound_tolerance must be a fraction of the box width in [0, 0.5), "
                                  f"got {self.bound_tolerance!r}.")
@@ -125,7 +129,12 @@ class Pass:
     held_after: dict[str, float] | None = None
     belief_after: Belief | None = None
     at_bounds: tuple[AtBound, ...] = ()
-    revisit: Revisit | None = None
+    looks: tuple[Revisit, ...] = ()
+
+    @property
+    def revisit(self) -> Revisit | None:
+        """The second look the pass takes (criticism.revisit.chosen); None without looks."""
+        return chosen(self.looks)
 
     @property
     def second_look(self) -> Revisit | None:
@@ -343,9 +352,10 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
             step = _criticize(model, ident, tries, (fit, held), config=config, progress=progress)
             passes.append(step)
             if stage is not None and config.mismatch is not None and config.revisit:
-                step.revisit = revisit_stage(model, step.criticism, stage, fit, held, held_idx,
-                                             config=config.mismatch, criticism=config.criticism, progress=progress,
-                                             journal_dir=None if journals is None else journals / f"revisit{k}")
+                step.looks = revisit_stage(model, step.criticism, stage, fit, held, held_idx,
+                                           config=config.mismatch, criticism=config.criticism,
+                                           suspects=config.suspects, progress=progress,
+                                           journal_dir=None if journals is None else journals / f"revisit{k}")
             row = step.found
             if row is None:
                 break
@@ -383,6 +393,7 @@ def _settings(config: DiagnoseConfig, fit_idx: Sequence[int], segments: Sequence
             "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
             "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,
             "read_contact": config.read_contact, "revisit": config.revisit,
+            **({"suspects": config.suspects} if config.suspects != 1 else {}),
             "fit_trajectories": list(fit_idx), "segments": list(segments)}
 
 

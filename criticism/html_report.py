@@ -67,8 +67,8 @@ def _pass(page: Page, k: int, p: Pass, d: Diagnosis) -> None:
     """One pass: its model, ranking, outcome, the re-identified effect parameters and the pinned parameters."""
     page.subsection(f"Pass {k}: model T6" + "".join(f" + {e}" for e in p.effects))
     _ranking(page, p)
-    if p.revisit is not None:
-        line = p.revisit.text()
+    for look in p.looks:
+        line = look.text()
         page.paragraph(f"{line[0].upper()}{line[1:]} (docs/diagnose.md, \"A second look at the stage\").")
     if p.added is None or p.held_after is None:
         page.paragraph(f"Verdict: {p.criticism.verdict}. No effect explains enough of the held-out residual left by "

@@ -77,7 +77,7 @@ def _outcome(p: Pass) -> list[str]:
     """A pass's verdict lines: the effect added, the held-out error E per trajectory before and
     after with the relative change, and the re-identified estimates; or why nothing was added."""
     found, after = p.found, p.held_after
-    second = [p.revisit.text()] if p.revisit is not None else []
+    second = [look.text() for look in p.looks]
     if p.added is None or found is None or after is None:
         return second + [f"verdict: {p.criticism.verdict} (no effect explains enough of the held-out residual "
                          "left by the re-tuned model)"]
@@ -111,7 +111,8 @@ def _estimate(name: str, e: dict[str, Any]) -> str:
 def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
     """The JSON-able record of diagnosis.json: settings, and per pass the criticism, θ̃ ("theta"),
     the parameters at a bound after the re-tuning ("at_bounds", belief.bounds.AtBound.as_dict),
-    the held-out errors and the re-identified estimates; "mismatch": the mismatch stage's record or None;
+    the held-out errors and the re-identified estimates, the second look the pass took ("revisit")
+    and every second look ("looks", criticism.revisit); "mismatch": the mismatch stage's record or None;
     "measured": the configs of the effects measured at rest; "contact": the contact read from the
     flops (criticism.contact) or None."""
     return {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
@@ -124,7 +125,8 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
                         else dict(zip(p.names_after, p.theta_after.tolist(), strict=True)),
                         "theta": dict(zip(p.names, p.theta.tolist(), strict=True)),
                         "at_bounds": [a.as_dict() for a in p.at_bounds],
-                        "revisit": None if p.revisit is None else p.revisit.as_dict()} for p in d.passes]}
+                        "revisit": None if p.revisit is None else p.revisit.as_dict(),
+                        "looks": [look.as_dict() for look in p.looks]} for p in d.passes]}
 
 
 def _objective(d: Diagnosis, trajectories: Sequence[xr.Dataset], effects: Sequence[Effect]) -> TrajectoryObjective:

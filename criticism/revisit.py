@@ -9,7 +9,11 @@ the model under it still has the wrong actuator.
 
 So when criticism ranks an effect e first with positive evidence without finding it, and the
 stage kept some components and rejected others, the rejected ones (e itself excepted) are tried
-again: the stage's rounds on the model with e, from e's joint fit. The components kept now and
+again: the stage's rounds on the model with e, from e's joint fit. With ``suspects`` = n > 1 the
+n best-ranked effects with positive evidence each get such a look, and the pass takes the look
+that found its effect with the most evidence (:func:`chosen`): the ranking was made on a model
+the stage may have left without a component, so an effect the missing component hides can rank
+below a smaller one there. The components kept now and
 e are scored together against the ranking's base (criticism.candidate: explained fraction and
 evidence, k = all their parameters), and e is **found** with them when that row reaches
 criticism's ``min_evidence`` and ``min_fraction``. The replication check is not repeated for the
@@ -41,7 +45,7 @@ from criticism.stage_journal import journalled_stage
 from physics.effects import Effect, effect_from_config
 from physics.trajectory_objective import TrajectoryObjective
 
-__all__ = ["Revisit", "revisit_stage"]
+__all__ = ["Revisit", "revisit_stage", "chosen"]
 
 
 @dataclass(frozen=True)
@@ -98,27 +102,52 @@ class Revisit:
         return belief.overruled(changes) if changes else belief
 
 
-def _suspect(crit: Criticism, stage: MismatchReport, config: MismatchConfig) -> tuple[Candidate, list[Effect]] | None:
-    """The top effect and the stage's rejected components worth a second look, or None."""
-    top = crit.ranking[0] if crit.ranking else None
-    if crit.found is not None or top is None or not top.evidence > 0 or not top.theta or not stage.effects:
-        return None
+def _suspects(crit: Criticism, stage: MismatchReport, config: MismatchConfig,
+              n: int) -> list[tuple[Candidate, list[Effect]]]:
+    """Of the n best-ranked effects, those with positive evidence and a joint fit, each with the
+    stage's rejected components worth a second look with it (module docstring); [] when criticism
+    found an effect itself."""
+    if crit.found is not None or not stage.effects:
+        return []
     kept = {e.name for e in stage.effects}
-    rejected = [c for c in config.components if c.name not in kept and c.name != top.name]
-    return (top, rejected) if rejected else None
+    out = []
+    for row in [c for c in crit.ranking[:n] if c.evidence > 0 and c.theta]:
+        rejected = [c for c in config.components if c.name not in kept and c.name != row.name]
+        if rejected:
+            out.append((row, rejected))
+    return out
+
+
+def chosen(looks: Sequence[Revisit]) -> Revisit | None:
+    """The look a pass takes: the one that found its effect with the most evidence, else the
+    first (the top effect's; None without looks)."""
+    found = [r for r in looks if r.found and r.row is not None]
+    if found:
+        return max(found, key=lambda r: r.row.evidence if r.row is not None else -np.inf)
+    return looks[0] if looks else None
 
 
 def revisit_stage(model: TrajectoryObjective, crit: Criticism, stage: MismatchReport, fit: np.ndarray,
                   held: np.ndarray, held_idx: Sequence[int], *, config: MismatchConfig,
-                  criticism: CriticismConfig, journal_dir: Path | None = None,
-                  progress: bool = True) -> Revisit | None:
-    """The second look of the module docstring on ``model`` (the pass's model, at whose re-tuned θ̃
-    ``crit`` ranked); fit, held: masks (S,) over its segments, held_idx: the held-out trajectories.
-    None when there is no suspect or nothing to try again."""
-    chosen = _suspect(crit, stage, config)
-    if chosen is None:
-        return None
-    top, rejected = chosen
+                  criticism: CriticismConfig, suspects: int = 1, journal_dir: Path | None = None,
+                  progress: bool = True) -> tuple[Revisit, ...]:
+    """The second looks of the module docstring on ``model`` (the pass's model, at whose re-tuned
+    θ̃ ``crit`` ranked), one per suspect in ranking order; fit, held: masks (S,) over its segments,
+    held_idx: the held-out trajectories; journal_dir: the top suspect's stage journal (the k-th
+    suspect's beside it, suffixed "-k"). () when there is no suspect or nothing to try again."""
+    looks = []
+    for k, (top, rejected) in enumerate(_suspects(crit, stage, config, suspects)):
+        journal = journal_dir if journal_dir is None or k == 0 else journal_dir.with_name(f"{journal_dir.name}-{k}")
+        looks.append(_look(model, crit, top, rejected, fit, held, held_idx, config=config, criticism=criticism,
+                           journal_dir=journal, progress=progress))
+    return tuple(looks)
+
+
+def _look(model: TrajectoryObjective, crit: Criticism, top: Candidate, rejected: list[Effect], fit: np.ndarray,
+          held: np.ndarray, held_idx: Sequence[int], *, config: MismatchConfig, criticism: CriticismConfig,
+          journal_dir: Path | None, progress: bool) -> Revisit:
+    """One second look: the stage's rounds over ``rejected`` on the model with ``top``, and the
+    components kept scored with it against the ranking's base."""
     effect = effect_from_config(top.config)
     suspect = model.with_effects(tuple(model.effects) + (effect,))
     report = journalled_stage(suspect, fit, held_idx, config=replace(config, components=tuple(rejected)),

@@ -96,8 +96,8 @@ def test_a_pass_found_on_the_second_look_is_marked_and_explained(tmp_path, two_f
                      config={"effect": "point_mass", "rod": 3, "position": -0.6}, placements=12)
     step.criticism = replace(step.criticism, ranking=[ranked, mass], verdict="unexplained", found=None)
     row = replace(ranked, explained=0.41, evidence=20.6)
-    step.revisit = Revisit("actuator_delay", ("tension_limited_actuator",),
-                           SimpleNamespace(effects=(TensionLimitedActuation(),)), row, True)
+    step.looks = (Revisit("actuator_delay", ("tension_limited_actuator",),
+                           SimpleNamespace(effects=(TensionLimitedActuation(),)), row, True),)
     args = argparse.Namespace(data=two_files, out=str(tmp_path), held_out=None, effects=None, budget=40, passes=1,
                               horizon=25, candidates=2048, seed=0, no_progress=True, skip_checks=False)
     page = write_diagnose_report(tmp_path, d, [load_trajectory(f) for f in two_files], args).read_text()
@@ -128,8 +128,9 @@ def test_the_signature_figure_shows_an_effect_found_on_the_second_look(tmp_path,
     ranked = replace(step.criticism.ranking[0], theta=tuple(np.append(T6.nominal, 0.08)),
                      config={"effect": "actuator_delay"})
     step.criticism = replace(step.criticism, ranking=[ranked], verdict="unexplained", found=None)
-    step.revisit = Revisit("actuator_delay", ("tension_limited_actuator",),
-                           SimpleNamespace(effects=(TensionLimitedActuation(),)), replace(ranked, evidence=20.6), True)
+    step.looks = (Revisit("actuator_delay", ("tension_limited_actuator",),
+                           SimpleNamespace(effects=(TensionLimitedActuation(),)), replace(ranked, evidence=20.6),
+                           True),)
     trajectories = [load_trajectory(f) for f in two_files]
     paths = write_report(d, trajectories, tmp_path)
     assert tmp_path / "signature.png" in paths

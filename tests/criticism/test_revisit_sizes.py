@@ -59,7 +59,7 @@ def test_the_loop_checks_sizes_only_for_an_effect_the_second_look_found() -> Non
     objective = SimpleNamespace(space=SPACE, segments=("t0/w0",), evaluate_parts=lambda theta: np.array([1.0]))
     ident = SimpleNamespace(best_theta=np.array([1.0, 0.55]), belief=_belief(0.55))
     for found, rule in ((None, "structure"), (object(), "narrowing")):
-        step = Pass((), ("rate",), np.array([1.0]), SimpleNamespace(found=found), {"t0": 2.0}, revisit=_revisit(0.21))
+        step = Pass((), ("rate",), np.array([1.0]), SimpleNamespace(found=found), {"t0": 2.0}, looks=(_revisit(0.21),))
         _record_after(step, "cable_hysteresis", objective, ident, np.array([True]))
         assert step.belief_after.rules[1] == rule and step.held_after == {"t0": 1.0}
 

@@ -1,7 +1,8 @@
 """The catalog search's statistics on a linear model whose answer is known: one effect is found
 alone, two effects that each hide the other are found through the pair, and a decoy is not named;
 a point mass on an unknown rod is found at its place and charged for the choice; the second look
-at the stage (criticism.revisit) finds an effect together with the component it lets in.
+at the stage (criticism.revisit) finds an effect together with the component it lets in, and a
+look at the second suspect finds the effect the missing component hid below a smaller one.
 
 The test double is an EffectObjective whose residual is linear in θ (no physics), so the verdict
 depends only on the search's rules (criticism.search, module docstring, step 3):
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -23,7 +25,7 @@ import pytest
 
 from criticism.candidate import rescore
 from criticism.mismatch import MismatchConfig
-from criticism.revisit import revisit_stage
+from criticism.revisit import chosen, revisit_stage
 from criticism.search import CriticismConfig, criticize, polish
 from physics.effects import ActuatorDelay, AirDrag, CableAnchors, Effect, PointMass, SensorBias, model_space
 from physics.objective import BatchResult
@@ -210,12 +212,49 @@ def test_the_second_look_finds_an_effect_with_the_component_the_stage_rejected(m
     monkeypatch.setattr("criticism.revisit.journalled_stage", stage)
     first = _stage((SensorBias(),))
     config = MismatchConfig(components=(SensorBias(), CableAnchors()))
-    second = revisit_stage(model, crit, first, FIT, ~FIT, [], config=config, criticism=CriticismConfig())
-    assert second is not None and second.found and [e.name for e in second.components] == ["cable_anchors"]
+    (second,) = revisit_stage(model, crit, first, FIT, ~FIT, [], config=config, criticism=CriticismConfig())
+    assert second.found and [e.name for e in second.components] == ["cable_anchors"]
     assert second.row.explained >= 0.3 and second.row.evidence >= 10 and set(second.row.values) == {"drag",
                                                                                                 "anchor_offset"}
     assert "kept cable_anchors" in second.text() and "-> found" in second.text()
     assert second.alone == crit.ranking[0].values and second.as_dict()["alone"] == second.alone
-    assert revisit_stage(model, crit, _stage(()), FIT, ~FIT, [], config=config, criticism=CriticismConfig()) is None
+    assert revisit_stage(model, crit, _stage(()), FIT, ~FIT, [], config=config, criticism=CriticismConfig()) == ()
     only_top = MismatchConfig(components=(SensorBias(), AirDrag()))
-    assert revisit_stage(model, crit, first, FIT, ~FIT, [], config=only_top, criticism=CriticismConfig()) is None
+    assert revisit_stage(model, crit, first, FIT, ~FIT, [], config=only_top, criticism=CriticismConfig()) == ()
+
+
+def test_a_look_at_the_second_suspect_finds_the_effect_the_missing_component_hid(monkeypatch) -> None:
+    """The data carry a small drag, a delay (3u + w) and cable anchors (-2.5u + z): without the
+    anchors the delay's fit cancels most of itself, so the drag ranks first and the delay second,
+    neither found. A second look at the top suspect alone (the drag with the anchors) finds nothing;
+    with ``suspects=2`` the delay gets a look too, is found with the anchors, and is the look the
+    pass takes. Each suspect's stage has its own journal."""
+    rng = np.random.default_rng(3)
+    a = 0.1 * rng.standard_normal((S, M, T6.dim))
+    basis = np.linalg.qr(np.c_[a.reshape(S * M, T6.dim), rng.standard_normal((S * M, 4))])[0][:, T6.dim:]
+    u, v, w, z = (np.sqrt(200.0) * basis[:, k].reshape(S, M) for k in range(4))
+    signatures = {"drag": v, "actuator_delay": 3 * u + w, "anchor_offset": -2.5 * u + z}
+    model = LinearEffects(rng.standard_normal((S, M)) + sum(signatures.values()), a, signatures)
+    crit = criticize(model, T6.nominal, fit=FIT, held=~FIT, effects=[AirDrag(), ActuatorDelay()],
+                     config=CriticismConfig(grid=5, refine=5, joint=1), progress=False)
+    assert crit.found is None and [c.name for c in crit.ranking] == ["air_drag", "actuator_delay"]
+    journals: list = []
+    tmp_journal = Path("journals") / "revisit0"
+
+    def stage(objective, fit, held, *, config, journal_dir, progress, theta):
+        journals.append(journal_dir)
+        extended = objective.with_effects(tuple(objective.effects) + (CableAnchors(),))
+        fitted = polish(extended, np.r_[theta, 0.0], fit)
+        return _stage((CableAnchors(),), fitted.theta, tuple(extended.space.names))
+
+    monkeypatch.setattr("criticism.revisit.journalled_stage", stage)
+    first, config = _stage((SensorBias(),)), MismatchConfig(components=(SensorBias(), CableAnchors()))
+    (top,) = revisit_stage(model, crit, first, FIT, ~FIT, [], config=config, criticism=CriticismConfig())
+    assert top.effect == "air_drag" and not top.found and chosen((top,)) is top
+    journals.clear()
+    looks = revisit_stage(model, crit, first, FIT, ~FIT, [], config=config, criticism=CriticismConfig(),
+                          suspects=2, journal_dir=tmp_journal)
+    assert [look.effect for look in looks] == ["air_drag", "actuator_delay"] and looks[1].found
+    assert looks[1].row.evidence > looks[0].row.evidence and chosen(looks) is looks[1]
+    assert journals == [tmp_journal, tmp_journal.with_name("revisit0-1")]
+    assert chosen(()) is None
