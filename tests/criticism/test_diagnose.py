@@ -51,6 +51,11 @@ def test_bound_tolerance_outside_half_the_box_is_refused() -> None:
         DiagnoseConfig(bound_tolerance=0.5)
 
 
+def test_no_suspect_for_the_second_look_is_refused() -> None:
+    with pytest.raises(CriticismError, match="suspects >= 1"):
+        DiagnoseConfig(suspects=0)
+
+
 def _diagnosis(at: tuple[AtBound, ...]) -> Diagnosis:
     floor = Candidate("re-tuned model", "floor", {"damping": 180.0}, 1.0, 2.0, 0.1, 3.0)
     crit = Criticism(_theta(), 1.0, 2.0, 10.0, 10.0, [], floor, "unexplained", None)
