@@ -262,11 +262,12 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
 def _pass_record(p: Pass) -> dict:
     """One pass of a diagnosis: the effect it found (None), with the share of the held-out error it
     explained, its evidence and fitted values, the held-out reduction after re-identifying with it
-    and its re-identified estimates."""
+    and its re-identified estimates; the pass's ranking as [effect, explained, evidence] rows."""
     found = p.found
     return {"found": found.name if found else None, "explained": found.explained if found else None,
             "evidence": found.evidence if found else None, "values": found.values if found else None,
-            "reduction": p.reduction, "estimates": p.estimates() if found else {}}
+            "reduction": p.reduction, "estimates": p.estimates() if found else {},
+            "ranking": [[c.name, c.explained, c.evidence] for c in p.criticism.ranking]}
 
 
 def _key(row: dict) -> tuple:
