@@ -9,17 +9,18 @@ the model under it still has the wrong actuator.
 
 So when criticism ranks an effect e first with positive evidence without finding it, and the
 stage kept some components and rejected others, the rejected ones (e itself excepted) are tried
-again: the stage's rounds on the model with e, from e's joint fit. With ``suspects`` = n > 1 the
-n best-ranked effects with positive evidence each get such a look, and the pass takes the look
-that found its effect with the most evidence (:func:`chosen`): the ranking was made on a model
-the stage may have left without a component, so an effect the missing component hides can rank
-below a smaller one there. The components kept now and
+again: the stage's rounds on the model with e, from e's joint fit. The components kept now and
 e are scored together against the ranking's base (criticism.candidate: explained fraction and
 evidence, k = all their parameters), and e is **found** with them when that row reaches
 criticism's ``min_evidence`` and ``min_fraction``. The replication check is not repeated for the
 pair: the held-out flop, which neither the stage nor the fit sees, is the test.
 
-A size found that way hangs on the components that entered with it: on the Bullet testbed the
+The ranking was made on a model the stage may have left without a component, so an effect the
+missing component hides can rank below a smaller one. With ``suspects`` = n > 1, each of the n
+best-ranked effects with positive evidence gets its own look, and the pass takes the look that
+found its effect with the most evidence (:func:`chosen`).
+
+A size found on a second look hangs on the components that entered with it: on the Bullet testbed the
 hysteresis fitted alone sat inside the truth's range, and with the actuator law beside it well
 above, with a narrow interval. The data chose both the components and the size, so the
 re-identified interval, conditional on that structure, is too narrow. :meth:`Revisit.check_sizes`
@@ -136,26 +137,26 @@ def revisit_stage(model: TrajectoryObjective, crit: Criticism, stage: MismatchRe
     held_idx: the held-out trajectories; journal_dir: the top suspect's stage journal (the k-th
     suspect's beside it, suffixed "-k"). () when there is no suspect or nothing to try again."""
     looks = []
-    for k, (top, rejected) in enumerate(_suspects(crit, stage, config, suspects)):
+    for k, (ranked, rejected) in enumerate(_suspects(crit, stage, config, suspects)):
         journal = journal_dir if journal_dir is None or k == 0 else journal_dir.with_name(f"{journal_dir.name}-{k}")
-        looks.append(_look(model, crit, top, rejected, fit, held, held_idx, config=config, criticism=criticism,
+        looks.append(_look(model, crit, ranked, rejected, fit, held, held_idx, config=config, criticism=criticism,
                            journal_dir=journal, progress=progress))
     return tuple(looks)
 
 
-def _look(model: TrajectoryObjective, crit: Criticism, top: Candidate, rejected: list[Effect], fit: np.ndarray,
+def _look(model: TrajectoryObjective, crit: Criticism, ranked: Candidate, rejected: list[Effect], fit: np.ndarray,
           held: np.ndarray, held_idx: Sequence[int], *, config: MismatchConfig, criticism: CriticismConfig,
           journal_dir: Path | None, progress: bool) -> Revisit:
-    """One second look: the stage's rounds over ``rejected`` on the model with ``top``, and the
+    """One second look: the stage's rounds over ``rejected`` on the model with ``ranked``, and the
     components kept scored with it against the ranking's base."""
-    effect = effect_from_config(top.config)
+    effect = effect_from_config(ranked.config)
     suspect = model.with_effects(tuple(model.effects) + (effect,))
     report = journalled_stage(suspect, fit, held_idx, config=replace(config, components=tuple(rejected)),
-                              journal_dir=journal_dir, progress=progress, theta=np.asarray(top.theta, float))
+                              journal_dir=journal_dir, progress=progress, theta=np.asarray(ranked.theta, float))
     tried = tuple(c.name for c in rejected)
-    alone = {n: float(v) for n, v in top.values.items()}
+    alone = {n: float(v) for n, v in ranked.values.items()}
     if not report.effects:
-        return Revisit(top.name, tried, report, None, False, alone)
+        return Revisit(ranked.name, tried, report, None, False, alone)
     after = suspect.with_effects(tuple(suspect.effects) + report.effects)
     stage_values = dict(zip(report.names, np.asarray(report.theta, float).tolist(), strict=True))
     theta = np.array([stage_values[n] for n in after.space.names])   # the stage orders its effects its own way
@@ -163,8 +164,8 @@ def _look(model: TrajectoryObjective, crit: Criticism, top: Candidate, rejected:
     n_fit, n_held = effective_counts(after.residuals(theta), fit, held)
     D = model.space.dim
     values = {n: float(v) for n, v in zip(after.space.names[D:], theta[D:], strict=True)}
-    row = scored(top.name, "effect", values, parts, fit, held, (crit.base_fit, crit.base_held), n_fit, n_held,
-                 len(values), top.config, top.placements)
+    row = scored(ranked.name, "effect", values, parts, fit, held, (crit.base_fit, crit.base_held), n_fit, n_held,
+                 len(values), ranked.config, ranked.placements)
     row = replace(row, stage="revisit", theta=tuple(float(v) for v in theta))
     found = row.evidence >= criticism.min_evidence and row.explained >= criticism.min_fraction
-    return Revisit(top.name, tried, report, row, found, alone)
+    return Revisit(ranked.name, tried, report, row, found, alone)
