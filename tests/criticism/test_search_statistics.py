@@ -239,7 +239,7 @@ def test_a_look_at_the_second_suspect_finds_the_effect_the_missing_component_hid
                      config=CriticismConfig(grid=5, refine=5, joint=1), progress=False)
     assert crit.found is None and [c.name for c in crit.ranking] == ["air_drag", "actuator_delay"]
     journals: list = []
-    tmp_journal = Path("journals") / "revisit0"
+    journal = Path("journals") / "revisit0"
 
     def stage(objective, fit, held, *, config, journal_dir, progress, theta):
         journals.append(journal_dir)
@@ -253,8 +253,8 @@ def test_a_look_at_the_second_suspect_finds_the_effect_the_missing_component_hid
     assert top.effect == "air_drag" and not top.found and chosen((top,)) is top
     journals.clear()
     looks = revisit_stage(model, crit, first, FIT, ~FIT, [], config=config, criticism=CriticismConfig(),
-                          suspects=2, journal_dir=tmp_journal)
+                          suspects=2, journal_dir=journal)
     assert [look.effect for look in looks] == ["air_drag", "actuator_delay"] and looks[1].found
     assert looks[1].row.evidence > looks[0].row.evidence and chosen(looks) is looks[1]
-    assert journals == [tmp_journal, tmp_journal.with_name("revisit0-1")]
+    assert journals == [journal, journal.with_name("revisit0-1")]
     assert chosen(()) is None
