@@ -75,6 +75,8 @@ from physics.effects import EFFECT_TYPES, EncoderOffset, PointMass, catalog, mod
 
 #: Criticism's default number of least-squares runs per refinement (CriticismConfig.local).
 DEFAULT_ROUNDS = CriticismConfig().local.rounds
+#: How many ranked effects get a second look at the stage by default (DiagnoseConfig.suspects).
+DEFAULT_SUSPECTS = DiagnoseConfig().suspects
 
 
 @dataclass(frozen=True)
@@ -85,10 +87,11 @@ class Loop:
 
     rounds: int = DEFAULT_ROUNDS
     patience: int = 1
-    suspects: int = 1
+    suspects: int = DEFAULT_SUSPECTS
 
     def record(self) -> dict:
-        """The row's fields (patience and suspects only when not 1, as rows saved before them)."""
+        """The row's fields (patience and suspects only when not 1: rows saved before either field
+        was recorded were made with 1)."""
         return {"rounds": self.rounds, **({"patience": self.patience} if self.patience != 1 else {}),
                 **({"suspects": self.suspects} if self.suspects != 1 else {})}
 
@@ -316,8 +319,9 @@ def _parser() -> argparse.ArgumentParser:
                     "rows without a rounds field made one)")
     ap.add_argument("--patience", type=int, default=1, help="stop those refinements after this many runs in a "
                     "row that each lowered the fit error by under 1 %% (LeastSquaresConfig.patience; default 1)")
-    ap.add_argument("--suspects", type=int, default=1, help="how many of the ranking's best effects get a second "
-                    "look at the stage when none is found (DiagnoseConfig.suspects; default 1)")
+    ap.add_argument("--suspects", type=int, default=DEFAULT_SUSPECTS, help="how many of the ranking's best "
+                    "effects get a second look at the stage when none is found (DiagnoseConfig.suspects; default "
+                    "%(default)s; rows without a suspects field made 1)")
     ap.add_argument("--out", default=None, help="rows are appended here (JSON lines; default "
                     "benchmarks/results/effects-{held-out}[-mismatch].jsonl)")
     return ap

@@ -61,10 +61,10 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
                         f"last one's best point until a run gains less than 1 %% (default "
                         f"{CriticismConfig().local.rounds}; 1 is faster and stops short where an effect trades off "
                         "the model's parameters; docs/diagnose.md, step 2)")
-    p.add_argument("--suspects", type=int, default=1, metavar="N",
+    p.add_argument("--suspects", type=int, default=DiagnoseConfig().suspects, metavar="N",
                    help="when no effect is found, give the N best-ranked effects each a second look at the mismatch "
                         "stage's rejected components and take the look that finds its effect with the most evidence "
-                        "(default 1: the top effect only; criticism.revisit)")
+                        "(default %(default)s; 1: the top effect only; criticism.revisit)")
     p.add_argument("--read-contact", action="store_true",
                    help="first read the end caps' shape and the markers' offset from the flops (criticism.contact): "
                         "flat ends join the model, and an evident offset is added before identifying")

@@ -84,8 +84,9 @@ class DiagnoseConfig:
     held-out flops no better, docs/diagnose.md);
     revisit: when criticism ranks an effect first without finding it, try the components the stage
     rejected again with that effect in the model (criticism.revisit); suspects: how many of the
-    ranking's best effects get such a look (the pass takes the look that found its effect with the
-    most evidence, criticism.revisit.chosen)."""
+    ranking's best effects with positive evidence get such a look (the pass takes the look that
+    found its effect with the most evidence, criticism.revisit.chosen; 3, so that an effect the
+    stage's rejected component hides below a smaller one still gets its look)."""
 
     passes: int = 2
     budget: int = 40
@@ -99,7 +100,7 @@ class DiagnoseConfig:
     measure_at_rest: bool = True
     read_contact: bool = False
     revisit: bool = True
-    suspects: int = 1
+    suspects: int = 3
 
     def __post_init__(self) -> None:
         if (self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1
