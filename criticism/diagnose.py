@@ -84,9 +84,8 @@ class DiagnoseConfig:
     held-out flops no better, docs/diagnose.md);
     revisit: when criticism ranks an effect first without finding it, try the components the stage
     rejected again with that effect in the model (criticism.revisit); suspects: how many of the
-    ranking's best effects with positive evidence get such a look (the pass takes the look that
-    found its effect with the most evidence, criticism.revisit.chosen; 3, so that an effect the
-    stage's rejected component hides below a smaller one still gets its look)."""
+    ranking's best effects get such a look, so that one hidden below a smaller one still gets it
+    (the pass takes the look that found its effect with the most evidence, revisit.chosen)."""
 
     passes: int = 2
     budget: int = 40
