@@ -282,9 +282,11 @@ def _key(row: dict) -> tuple:
             row.get("rounds", 1), row.get("patience", 1), row.get("suspects", 1))
 
 
-def latest_rows(rows: list[dict]) -> list[dict]:
-    """Of rows with the same :func:`_key`, the last one, in the order of their last appearance."""
-    return list({_key(r): r for r in rows}.values())
+def latest_rows(rows: list[dict], per_seed: bool = False) -> list[dict]:
+    """Of rows with the same :func:`_key` (per_seed: the same data set and seed, whatever the
+    protocol), the last one, at the place of the first."""
+    key = (lambda r: (r["scenario"], r["seed"])) if per_seed else _key
+    return list({key(r): r for r in rows}.values())
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -296,6 +298,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="only print the table of saved rows (of several files: their rows in order)")
     ap.add_argument("--latest", action="store_true", help="with --summarize: only the latest row of each "
                     "data set, seed and protocol (a later file's row replaces an earlier one)")
+    ap.add_argument("--per-seed", action="store_true", help="with --latest: the latest row of each data set and "
+                    "seed whatever its protocol (files given in the order the default changed give its standing)")
     ap.add_argument("--rows", action="store_true", help="with --summarize: also one line per row (held-out errors)")
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--held-out", choices=sorted(HELD_OUT), default="actuation",
@@ -331,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.summarize:
         saved = [r for path in args.summarize for r in read_rows(path)]
-        saved = latest_rows(saved) if args.latest else saved
+        saved = latest_rows(saved, args.per_seed) if args.latest else saved
         summarize(saved)
         if args.rows:
             print_rows(saved)
