@@ -23,6 +23,10 @@ has no true size in the catalog's law.
 
     .venv/bin/python benchmarks/effects_oracle.py --seeds 1                # seed 0, every data set
     .venv/bin/python benchmarks/effects_oracle.py --summarize benchmarks/results/effects-oracle.jsonl
+    .venv/bin/python benchmarks/effects_oracle.py --summarize FILE --datasets drag --floor   # noise floors too
+
+``--floor`` adds the held-out error that the data's noise alone leaves (:func:`noise_floor`) and its
+share of the base's: the smallest after / before any model could reach on that flop at that noise.
 
 Rows go to ``--out`` (JSON lines); a (data set, seed) already there is skipped.
 """
@@ -36,6 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 from jsonl_rows import read_rows
 
 from belief.least_squares import LeastSquaresConfig, LocalFit
@@ -44,8 +49,10 @@ from criticism.diagnose import split_masks
 from criticism.mismatch import MismatchConfig, MismatchReport
 from criticism.search import polish
 from criticism.stage_journal import journalled_stage
-from physics import TrajectoryObjective, load_trajectory
+from physics import ReplayController, TrajectoryObjective, load_trajectory, simulate
 from physics.effects import ActuatorDelay, Effect, GroundSlope, GroundViscosity, PointMass, SensorBias, ViscousDrag
+
+NOISE = 0.0002  # [m], the data sets' marker noise
 
 #: Criticism's settings with one least-squares run per fit, the protocol of the saved rows.
 ONE_RUN = CriticismConfig(local=LeastSquaresConfig(rounds=1))
@@ -98,7 +105,7 @@ def staged(name: str, seed: int, journals: Path, config: CriticismConfig) -> Sta
     """Steps 1 and 2 of the module docstring for data set ``name`` and ``seed``, the stage journalled
     in ``journals``/name-sSEED. The caller closes ``full``."""
     from testbed.datasets import cached_dataset
-    files = cached_dataset(name, seed, noise=0.0002, version=2)
+    files = cached_dataset(name, seed, noise=NOISE, version=2)
     truth = json.loads((files["flop_0"].parent / "truth.json").read_text())["effects"]
     data = [load_trajectory(files[label]) for label in ("flop_0", "flop_1", "heldout_0")]
     full = TrajectoryObjective(data, horizon=25, loss="squared", windows=3)
@@ -134,13 +141,49 @@ def run_one(name: str, seed: int, journals: Path, config: CriticismConfig) -> di
             "seconds": time.perf_counter() - start}
 
 
-def summarize(rows: list[dict]) -> None:
+def noisy_copies(clean: xr.Dataset, draws: int) -> list[xr.Dataset]:
+    """``draws`` copies of ``clean`` with N(0, NOISE²) added to the nodes (numpy seed 0) and the
+    exact velocities dropped, as a motion-capture recording has none."""
+    rng = np.random.default_rng(0)
+    copies = []
+    for _ in range(draws):
+        noisy = clean.drop_vars("velocities", errors="ignore").copy(deep=True)
+        noisy["nodes"].values[:] += rng.normal(0.0, NOISE, noisy["nodes"].shape)
+        copies.append(noisy)
+    return copies
+
+
+def noise_floor(name: str, seed: int, draws: int = 8) -> float:
+    """Mean E_H [m²] that the noise alone leaves on data set ``name``'s held-out flop: DART at the
+    testbed robot's θ with the true catalog effect replays the flop's controls (T, C) at its sample
+    rate, NOISE is added ``draws`` times, and each copy is scored at that θ with the benchmark's
+    objective (horizon 25, three windows). The stage's components are left out: the floor is set by
+    the noise and the horizon, which they barely change."""
+    from testbed.datasets import cached_dataset
+    files = cached_dataset(name, seed, noise=NOISE, version=2)
+    truth = json.loads((files["flop_0"].parent / "truth.json").read_text())
+    effect, values = true_effect(name, seed, truth["effects"])
+    held = load_trajectory(files["heldout_0"])
+    t = np.asarray(held["time"].values, float)
+    replay = ReplayController(t, np.asarray(held["controls"].transpose("time", "cable").values, float))
+    theta = {**truth["theta"], **values}
+    clean = simulate(theta, controller=replay, duration=float(t[-1] - t[0]), effects=(effect,),
+                     sample_rate=1.0 / float(np.median(np.diff(t))))
+    with TrajectoryObjective(noisy_copies(clean, draws), horizon=25, loss="squared", windows=3, effects=(effect,),
+                             n_workers=0) as E:
+        return float(E(E.space.as_array(theta))) / draws
+
+
+def summarize(rows: list[dict], floor: bool = False) -> None:
+    """Print one line per row; with ``floor``, also the noise floor of its held-out flop [m²] and
+    its share of the base's held-out error (computed, a few seconds per row)."""
     print(f"{'data set':18s} {'seed':>4} {'fit gain, true size':>20} {'held-out explained, true size':>30} "
-          f"{'size free':>10}  fitted size (true)")
+          f"{'size free':>10}{'  noise floor / before' if floor else ''}  fitted size (true)")
     for r in rows:
         sizes = ", ".join(f"{k}={v:.4g} ({r['truth'][k]:.4g})" for k, v in r["free_values"].items())
+        share = f"  {noise_floor(r['dataset'], r['seed']) / r['base_held']:21.1%}" if floor else ""
         print(f"{r['dataset']:18s} {r['seed']:4d} {r['fit_gain_true']:20.1%} {r['explained_true']:30.1%} "
-              f"{r['explained_free']:10.1%}  {sizes}")
+              f"{r['explained_free']:10.1%}{share}  {sizes}", flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -151,9 +194,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--journals", default=".cache/oracle", help="one folder per data set for the stage's journal")
     ap.add_argument("--out", default="benchmarks/results/effects-oracle.jsonl")
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
+    ap.add_argument("--floor", action="store_true", help="with --summarize: each row's noise floor (module docstring)")
     args = ap.parse_args(argv)
     if args.summarize:
-        summarize(read_rows(args.summarize))
+        summarize([r for r in read_rows(args.summarize) if r["dataset"] in args.datasets], floor=args.floor)
         return 0
     out = Path(args.out)
     saved = read_rows(out)
