@@ -157,8 +157,8 @@ def noise_floor(name: str, seed: int, draws: int = 8) -> float:
     """Mean E_H [m²] that the noise alone leaves on data set ``name``'s held-out flop: DART at the
     testbed robot's θ with the true catalog effect replays the flop's controls (T, C) at its sample
     rate, NOISE is added ``draws`` times, and each copy is scored at that θ with the benchmark's
-    objective (horizon 25, three windows). The stage's components are left out: the floor is set by
-    the noise and the horizon, which they barely change."""
+    objective (horizon 25, three windows). The stage's components are left out, so this is the
+    floor of the T6 with the true effect, an approximation of the augmented model's."""
     from testbed.datasets import cached_dataset
     files = cached_dataset(name, seed, noise=NOISE, version=2)
     truth = json.loads((files["flop_0"].parent / "truth.json").read_text())
