@@ -26,7 +26,8 @@ has no true size in the catalog's law.
     .venv/bin/python benchmarks/effects_oracle.py --summarize FILE --datasets drag --floor   # noise floors too
 
 ``--floor`` adds the held-out error that the data's noise alone leaves (:func:`noise_floor`) and its
-share of the base's: the smallest after / before any model could reach on that flop at that noise.
+share of the base's: about the smallest after / before any model could reach on that flop at that
+noise (the floor is computed without the stage's components).
 
 Rows go to ``--out`` (JSON lines); a (data set, seed) already there is skipped.
 """
@@ -149,6 +150,7 @@ def noisy_copies(clean: xr.Dataset, draws: int) -> list[xr.Dataset]:
     for _ in range(draws):
         noisy = clean.drop_vars("velocities", errors="ignore").copy(deep=True)
         noisy["nodes"].values[:] += rng.normal(0.0, NOISE, noisy["nodes"].shape)
+        noisy.attrs["noise_m"] = NOISE
         copies.append(noisy)
     return copies
 

@@ -21,6 +21,7 @@ def test_noisy_copies_add_the_data_noise_to_the_nodes_only() -> None:
     assert len(copies) == 3
     for noisy in copies:
         assert "velocities" not in noisy
+        assert noisy.attrs["noise_m"] == NOISE
         added = noisy["nodes"].values - clean["nodes"].values
         assert abs(added.std() / NOISE - 1.0) < 0.05
         assert abs(added.mean()) < 0.05 * NOISE
