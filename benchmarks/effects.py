@@ -245,8 +245,10 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "n_eff_fit": first.n_eff_fit,
            "found": d.found, "measured": [e.name for e in d.measured], "alternatives": first.alternatives,
            "replication": first.replication,
-           "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error}
+           "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error,
+                                   "theta": dict(zip(d.passes[0].names, c.theta))}
                           for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
+           "theta_retuned": dict(zip(d.passes[0].names, first.theta.tolist(), strict=True)),
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],
            "held_before": sum(d.passes[0].held_before.values()), "seconds": time.perf_counter() - start,
            "true_values": true_values, "held_out": held_out, "larger": larger, "mismatch": mismatch,

@@ -203,6 +203,13 @@ def summarize(rows: list[dict]) -> None:
               f"held-out one-step {ratios['one_step']:.2f}x, drift {ratios['drift']:.2f}x")
 
 
+def _apart(a: dict[str, float], b: dict[str, float], k: int = 3) -> str:
+    """The k model parameters on which two joint fits differ most, |a - b| / max(|a|, |b|), as
+    "name a/b" (the truth's contender first)."""
+    rel = {n: abs(a[n] - b[n]) / max(abs(a[n]), abs(b[n]), 1e-300) for n in a if n in b}
+    return ", ".join(f"{n} {a[n]:.4g}/{b[n]:.4g}" for n in sorted(rel, key=rel.get, reverse=True)[:k])
+
+
 def details(rows: list[dict]) -> None:
     """The figures behind the table: the largest after/before ratios, the top evidence where
     nothing should be claimed, and every contest between effects that would each be found
@@ -230,10 +237,12 @@ def details(rows: list[dict]) -> None:
             print(f"{r['scenario']} seed {r['seed']}: the true effect is no contender; top {r['top']}")
             continue
         other = max((k for k in c if k != true), key=lambda k: c[k]["evidence"])
-        print(f"{r['scenario']} seed {r['seed']}: top {r['top']}, margin {c[true]['evidence'] - c[other]['evidence']:.1f} "
-              f"over {other}; fitted flops favour the truth {c[true]['fit_error'] < c[other]['fit_error']}, held-out "
-              f"{c[true]['held_error'] < c[other]['held_error']} (E_H {c[true]['held_error']:.4f} against "
-              f"{c[other]['held_error']:.4f}); alternatives {r.get('alternatives', [])}")
+        apart = f"; θ apart most in {_apart(c[true]['theta'], c[other]['theta'])}" if "theta" in c[true] else ""
+        print(f"{r['scenario']} seed {r['seed']}: top {r['top']}, the truth's margin over {other} "
+              f"{c[true]['evidence'] - c[other]['evidence']:.1f}; fitted flops favour the truth "
+              f"{c[true]['fit_error'] < c[other]['fit_error']}, held-out {c[true]['held_error'] < c[other]['held_error']} "
+              f"(E_H {c[true]['held_error']:.4f} against {c[other]['held_error']:.4f}); alternatives "
+              f"{r.get('alternatives', [])}{apart}")
     placed = [r for r in rows if r.get("true_configs") and (r.get("top_placements") or 1) > 1
               and r["top"] == r["truth"][0]]
     if placed:

@@ -19,3 +19,11 @@ def test_latest_keeps_one_row_per_protocol_and_per_seed_keeps_the_last() -> None
         (1, 1, []), (2, 1, []), (1, 3, ["cable_hysteresis"])]
     per_seed = latest_rows(rows, per_seed=True)
     assert [(r["seed"], r["found"]) for r in per_seed] == [(1, ["cable_hysteresis"]), (2, [])]
+
+
+def test_apart_names_the_parameters_two_joint_fits_differ_on_most_relative_to_their_size() -> None:
+    from effects_table import _apart
+    truth_fit = {"damping": 200.0, "targetVelocity": 1.41, "radius_mp": 0.0346, "rod_length": 1.7367}
+    other_fit = {"damping": 205.0, "targetVelocity": 1.55, "radius_mp": 0.0316, "rod_length": 1.7367}
+    assert _apart(truth_fit, other_fit, k=2) == "targetVelocity 1.41/1.55, radius_mp 0.0346/0.0316"
+    assert _apart(truth_fit, truth_fit, k=1).startswith("damping 200/200")   # ties keep the fits' order
