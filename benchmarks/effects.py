@@ -217,7 +217,7 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
     row = diagnose_row(name, seed, budget, data, [e.name for e in effects],
                        {k: v for e in effects for k, v in SIZES[e.name].items()}, held_out=held_out, larger=larger,
                        mismatch=mismatch, read_contact=read_contact, journal_dir=folder, loop=loop)
-    return {**row, "true_configs": [e.config() for e in effects]}
+    return {**row, "true_configs": [e.config() for e in effects], "theta_true": truth}
 
 
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
@@ -246,7 +246,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "found": d.found, "measured": [e.name for e in d.measured], "alternatives": first.alternatives,
            "replication": first.replication,
            "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error,
-                                   "theta": dict(zip(d.passes[0].names, c.theta))}
+                                   "theta": dict(zip(d.passes[0].names, c.theta[:len(d.passes[0].names)], strict=True))}
                           for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
            "theta_retuned": dict(zip(d.passes[0].names, first.theta.tolist(), strict=True)),
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],

@@ -203,11 +203,12 @@ def summarize(rows: list[dict]) -> None:
               f"held-out one-step {ratios['one_step']:.2f}x, drift {ratios['drift']:.2f}x")
 
 
-def _apart(a: dict[str, float], b: dict[str, float], k: int = 3) -> str:
+def _apart(a: dict[str, float], b: dict[str, float], k: int = 3, truth: dict[str, float] | None = None) -> str:
     """The k model parameters on which two joint fits differ most, |a - b| / max(|a|, |b|), as
-    "name a/b" (the truth's contender first)."""
+    "name a/b" (the truth's contender first), with θ* where ``truth`` has it."""
     rel = {n: abs(a[n] - b[n]) / max(abs(a[n]), abs(b[n]), 1e-300) for n in a if n in b}
-    return ", ".join(f"{n} {a[n]:.4g}/{b[n]:.4g}" for n in sorted(rel, key=rel.get, reverse=True)[:k])
+    return ", ".join(f"{n} {a[n]:.4g}/{b[n]:.4g}" + (f" (θ* {truth[n]:.4g})" if truth and n in truth else "")
+                     for n in sorted(rel, key=rel.get, reverse=True)[:k])
 
 
 def details(rows: list[dict]) -> None:
@@ -237,7 +238,8 @@ def details(rows: list[dict]) -> None:
             print(f"{r['scenario']} seed {r['seed']}: the true effect is no contender; top {r['top']}")
             continue
         other = max((k for k in c if k != true), key=lambda k: c[k]["evidence"])
-        apart = f"; θ apart most in {_apart(c[true]['theta'], c[other]['theta'])}" if "theta" in c[true] else ""
+        apart = (f"; θ apart most in {_apart(c[true]['theta'], c[other]['theta'], truth=r.get('theta_true'))}"
+                 if "theta" in c[true] else "")
         print(f"{r['scenario']} seed {r['seed']}: top {r['top']}, the truth's margin over {other} "
               f"{c[true]['evidence'] - c[other]['evidence']:.1f}; fitted flops favour the truth "
               f"{c[true]['fit_error'] < c[other]['fit_error']}, held-out {c[true]['held_error'] < c[other]['held_error']} "

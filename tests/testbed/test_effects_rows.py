@@ -27,3 +27,4 @@ def test_apart_names_the_parameters_two_joint_fits_differ_on_most_relative_to_th
     other_fit = {"damping": 205.0, "targetVelocity": 1.55, "radius_mp": 0.0316, "rod_length": 1.7367}
     assert _apart(truth_fit, other_fit, k=2) == "targetVelocity 1.41/1.55, radius_mp 0.0346/0.0316"
     assert _apart(truth_fit, truth_fit, k=1).startswith("damping 200/200")   # ties keep the fits' order
+    assert _apart(truth_fit, other_fit, k=1, truth={"targetVelocity": 1.5}) == "targetVelocity 1.41/1.55 (θ* 1.5)"
