@@ -233,7 +233,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
                             criticism=CriticismConfig(local=LeastSquaresConfig(rounds=loop.rounds,
                                                                                patience=loop.patience)))
     d = diagnose(data, held_out=[2], config=config, progress=False, journal_dir=journal_dir)
-    first = d.passes[0].criticism
+    first, names = d.passes[0].criticism, d.passes[0].names
     top = first.ranking[0] if first.ranking else None
     row = {"scenario": name, "seed": seed, "truth": truth, "top": top.name if top else None,
            "top_explained": top.explained if top else None, "top_values": top.values if top else None,
@@ -246,9 +246,9 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
            "found": d.found, "measured": [e.name for e in d.measured], "alternatives": first.alternatives,
            "replication": first.replication,
            "contenders": {c.name: {"evidence": c.evidence, "fit_error": c.fit_error, "held_error": c.held_error,
-                                   "theta": dict(zip(d.passes[0].names, c.theta[:len(d.passes[0].names)], strict=True))}
+                                   "theta": dict(zip(names, c.theta[:len(names)], strict=True))}
                           for c in first.ranking if c.name in (first.contest or {}).get("effects", [])},
-           "theta_retuned": dict(zip(d.passes[0].names, first.theta.tolist(), strict=True)),
+           "theta_retuned": dict(zip(names, first.theta.tolist(), strict=True)),
            "reductions": [p.reduction for p in d.passes if p.reduction is not None],
            "held_before": sum(d.passes[0].held_before.values()), "seconds": time.perf_counter() - start,
            "true_values": true_values, "held_out": held_out, "larger": larger, "mismatch": mismatch,

@@ -1,9 +1,10 @@
 """Which saved rows benchmarks/effects.py summarizes with ``--latest``: per protocol by default,
 per data set and seed with ``--per-seed`` (a default's standing read from files in the order the
-default changed)."""
+default changed); the contest line's parameters on which two contenders' fits differ most."""
 from __future__ import annotations
 
 from effects import latest_rows
+from effects_table import _apart
 
 
 def _row(seed: int, suspects: int, found: list[str]) -> dict:
@@ -22,7 +23,6 @@ def test_latest_keeps_one_row_per_protocol_and_per_seed_keeps_the_last() -> None
 
 
 def test_apart_names_the_parameters_two_joint_fits_differ_on_most_relative_to_their_size() -> None:
-    from effects_table import _apart
     truth_fit = {"damping": 200.0, "targetVelocity": 1.41, "radius_mp": 0.0346, "rod_length": 1.7367}
     other_fit = {"damping": 205.0, "targetVelocity": 1.55, "radius_mp": 0.0316, "rod_length": 1.7367}
     assert _apart(truth_fit, other_fit, k=2) == "targetVelocity 1.41/1.55, radius_mp 0.0346/0.0316"
