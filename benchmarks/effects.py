@@ -220,6 +220,15 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
     return {**row, "true_configs": [e.config() for e in effects], "theta_true": truth}
 
 
+def diagnose_config(budget: int, passes: int, seed: int, *, mismatch: bool = False, read_contact: bool = False,
+                    loop: Loop = Loop()) -> DiagnoseConfig:
+    """The benchmark's diagnose settings: the library's defaults but for these."""
+    return DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None,
+                          read_contact=read_contact, suspects=loop.suspects,
+                          criticism=CriticismConfig(local=LeastSquaresConfig(rounds=loop.rounds,
+                                                                             patience=loop.patience)))
+
+
 def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str], true_values: dict, *,
                  held_out: str, larger: str | None, mismatch: bool = False, passes: int | None = None,
                  read_contact: bool = False, journal_dir: Path | None = None, loop: Loop = Loop()) -> dict:
@@ -228,10 +237,7 @@ def diagnose_row(name: str, seed: int, budget: int, data: list, truth: list[str]
     mix, else 1); the benchmark's row (JSON-ready)."""
     passes = passes or (2 if name in MIXES else 1)
     start = time.perf_counter()
-    config = DiagnoseConfig(budget=budget, passes=passes, seed=seed, mismatch=MismatchConfig() if mismatch else None,
-                            read_contact=read_contact, suspects=loop.suspects,
-                            criticism=CriticismConfig(local=LeastSquaresConfig(rounds=loop.rounds,
-                                                                               patience=loop.patience)))
+    config = diagnose_config(budget, passes, seed, mismatch=mismatch, read_contact=read_contact, loop=loop)
     d = diagnose(data, held_out=[2], config=config, progress=False, journal_dir=journal_dir)
     first, names = d.passes[0].criticism, d.passes[0].names
     top = first.ranking[0] if first.ranking else None

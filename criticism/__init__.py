@@ -7,6 +7,8 @@ and whether adding that effect helps on held-out data.
   explain beyond re-tuning the model's own parameters (evidence as a BIC difference), verdict
   "found" or "unexplained"; :mod:`criticism.screening` fits an effect's parameters with the model's
   held, :mod:`criticism.replication` asks a found effect to carry over between trajectories;
+- :mod:`criticism.discrimination`: how far two contenders' fitted models predict apart, under the
+  recorded flops and candidate ones (the flop that would tell them apart);
 - :mod:`criticism.diagnose`: the loop identify -> criticize -> add the effect -> re-identify (after
   the mismatch stage and the effects the resting robot shows);
 - :mod:`criticism.report`: the diagnosis as text, JSON and figures; :mod:`criticism.cli`: the
@@ -20,6 +22,7 @@ below it imports criticism.
 from __future__ import annotations
 
 from criticism.diagnose import DiagnoseConfig, Diagnosis, Pass, diagnose, retuned_at_bounds, shown_at_rest, split_masks
+from criticism.discrimination import Separation, flop_candidates, recorded_controllers, separations
 from criticism.errors import CriticismError
 from criticism.replication import replication_gains
 from criticism.report import diagnosis_record, diagnosis_text, write_report
@@ -28,7 +31,7 @@ from criticism.screening import fit_effect
 from criticism.search import Candidate, Criticism, CriticismConfig, criticize, polish
 
 __all__ = [
-    "CriticismError",
+    "CriticismError", "Separation", "flop_candidates", "recorded_controllers", "separations",
     "DiagnoseConfig", "Diagnosis", "Pass", "diagnose", "retuned_at_bounds", "shown_at_rest", "split_masks",
     "CriticismConfig", "Candidate", "Criticism", "criticize", "fit_effect", "polish", "replication_gains",
     "PHASES", "PhaseRule", "phases", "residual_dataset", "residual_summary",
