@@ -75,14 +75,15 @@ def _nodes(base: Sequence[Effect], c: Candidate, controller: Controller, duratio
 
 def separations(base: Sequence[Effect], a: Candidate, b: Candidate, controllers: Mapping[str, Controller], *,
                 duration: float = 1.5, sample_rate: float = 100.0, recorded: Sequence[str] = ()) -> list[Separation]:
-    """s(u) (module docstring) of contenders ``a`` and ``b`` (joint fits with θ) for each controller,
-    largest first. base: the effects of the model both were fitted on (the criticized objective's,
-    in its order, so that θ_c lives in model_space(base + c's effect)); ``recorded``: the labels that
-    replay recorded flops. A controller under which either model diverges separates them without
-    bound (rms inf)."""
+    """s(u) (module docstring) of contenders ``a`` and ``b`` (fits with θ) for each controller, each
+    simulated for ``duration`` [s] after the robot settles, largest first. base: the effects of the
+    model both were fitted on (the criticized objective's, in its order, so that θ_c lives in
+    model_space(base + c's effect); Diagnosis.first_model for the first pass); ``recorded``: the
+    labels that replay recorded flops. A controller under which either model diverges separates
+    them without bound (rms inf)."""
     if not a.theta or not b.theta:
-        raise CriticismError("separations needs two contenders with their joint fits (Candidate.theta); "
-                             "screened candidates have none.")
+        raise CriticismError("separations needs two contenders with their fitted parameter vectors "
+                             "(Candidate.theta, as criticism's ranking holds them).")
     rows = []
     for label, u in controllers.items():
         xa, xb = (_nodes(base, c, u, duration, sample_rate) for c in (a, b))

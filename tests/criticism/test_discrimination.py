@@ -38,5 +38,5 @@ def test_candidates_cover_each_heading_and_pattern_and_bad_input_is_refused() ->
     with pytest.raises(CriticismError, match="headings >= 1"):
         flop_candidates(headings=0)
     screened = Candidate("sensor_bias", "effect", {}, 0.0, 0.0, 0.0, 0.0, config=SensorBias().config())
-    with pytest.raises(CriticismError, match="joint fits"):
+    with pytest.raises(CriticismError, match="fitted parameter vectors"):
         separations((), screened, _bias(0.0), {"flop": FlopController()})
