@@ -167,7 +167,7 @@ def noise_floor(name: str, seed: int, draws: int = 8) -> float:
     effect, values = true_effect(name, seed, truth["effects"])
     held = load_trajectory(files["heldout_0"])
     t = np.asarray(held["time"].values, float)
-    replay = ReplayController(t, np.asarray(held["controls"].transpose("time", "cable").values, float))
+    replay = ReplayController.of(held)
     theta = {**truth["theta"], **values}
     clean = simulate(theta, controller=replay, duration=float(t[-1] - t[0]), effects=(effect,),
                      sample_rate=1.0 / float(np.median(np.diff(t))))

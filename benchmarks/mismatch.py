@@ -116,7 +116,7 @@ def noise_floor(row: dict) -> float:
     held = load(row.get("source", "testbed"), row["dataset"], row["seed"], row["noise"], row.get("flops_version", 1))[2]
     effects = [EFFECT_TYPES[name]() for name in row.get("read", []) + row["kept"]]
     t = np.asarray(held["time"].values, float)
-    replay = ReplayController(t, np.asarray(held["controls"].transpose("time", "cable").values, float))
+    replay = ReplayController.of(held)
     theta = np.asarray(row["theta"], float)
     ds = simulate(theta, controller=replay, duration=float(t[-1] - t[0]), effects=effects, noise=row["noise"],
                   seed=0)

@@ -53,11 +53,7 @@ def flop_candidates(headings: int = 6, patterns: Sequence[tuple[int, float]] = (
 
 def recorded_controllers(trajectories: Sequence[xr.Dataset]) -> dict[str, ReplayController]:
     """The recorded flops' controls (time, cable) replayed, labelled "recorded t<k>"."""
-    out = {}
-    for k, ds in enumerate(trajectories):
-        t = np.asarray(ds["time"].values, float)
-        out[f"recorded t{k}"] = ReplayController(t, np.asarray(ds["controls"].transpose("time", "cable").values, float))
-    return out
+    return {f"recorded t{k}": ReplayController.of(ds) for k, ds in enumerate(trajectories)}
 
 
 def _nodes(base: Sequence[Effect], c: Candidate, controller: Controller, duration: float,

@@ -24,6 +24,8 @@ from physics.errors import ControllerError
 from physics.geometry import N_CABLES
 
 if TYPE_CHECKING:                   # imported at run time only when planning: it loads dartpy
+    import xarray as xr
+
     from physics.tensegrity import T6Model
 
 __all__ = ["Controller", "HoldController", "ReplayController", "FlopController", "FlopPlan", "select_cables"]
@@ -57,6 +59,14 @@ class ReplayController:
                                   f"got {self.controls.shape}.")
         if not np.all(np.isfinite(self.controls)):
             raise ControllerError("controls contain NaN; fill or drop missing control samples before replaying.")
+
+    @classmethod
+    def of(cls, trajectory: xr.Dataset) -> ReplayController:
+        """The controls a trajectory recorded (its ``controls`` (time, cable) at its ``time``s), to replay."""
+        if "controls" not in trajectory:
+            raise ControllerError("the trajectory records no controls to replay (no 'controls' variable).")
+        return cls(np.asarray(trajectory["time"].values, float),
+                   np.asarray(trajectory["controls"].transpose("time", "cable").values, float))
 
     def reset(self, model: T6Model) -> None:
         pass

@@ -234,8 +234,12 @@ def test_replaying_recorded_controls_reproduces_the_trajectory(flop_data):
     """The flop controller's commands, replayed open loop at the same θ, give the same motion."""
     replay = simulate(controller=ReplayController(flop_data.time.values, flop_data.controls.values), duration=3.0)
     np.testing.assert_array_equal(replay.nodes.values, flop_data.nodes.values)
+    of = ReplayController.of(flop_data.transpose("cable", "time", ...))     # any dimension order
+    np.testing.assert_array_equal(of.controls, flop_data.controls.transpose("time", "cable").values)
     with pytest.raises(ControllerError, match="shape"):
         ReplayController(flop_data.time.values, flop_data.controls.values[:, :3])
+    with pytest.raises(ControllerError, match="no controls"):
+        ReplayController.of(flop_data.drop_vars("controls"))
 
 
 def test_hold_controller_keeps_rest_lengths():
