@@ -73,9 +73,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{s.label:32s} {1000 * s.rms:8.2f} mm{'  (recorded)' if s.recorded else ''}")
     pick = _new_motions(seps)[0 if args.add == "best" else -1]
     effects = scenario_effects(args.scenario)
-    controller = {**recorded_controllers(data), **flop_candidates()}[pick.label]
-    extra = simulate(model_space(effects).as_array(truth, check_bounds=False), controller=controller, duration=1.5,
-                     effects=effects, noise=NOISE, seed=[args.seed, 3])
+    theta = model_space(effects).as_array(truth, check_bounds=False)
+    extra = simulate(theta, controller=flop_candidates()[pick.label], duration=1.5, effects=effects, noise=NOISE,
+                     seed=[args.seed, 3])
     row = diagnose_row(args.scenario, args.seed, args.budget, [*data, extra], [e.name for e in effects],
                        {}, held_out="actuation", larger=effects[0].name)
     after = {k: v["evidence"] for k, v in row["contenders"].items()}
