@@ -23,7 +23,7 @@ import numpy as np
 from physics.errors import ControllerError
 from physics.geometry import N_CABLES
 
-if TYPE_CHECKING:                   # for annotations only (T6Model loads dartpy)
+if TYPE_CHECKING:                   # annotations; T6Model is imported at run time only when planning (dartpy)
     import xarray as xr
 
     from physics.tensegrity import T6Model
