@@ -27,7 +27,7 @@ def test_a_pure_sensor_bias_separates_by_its_size_over_root_three_under_every_fl
     seps = separations((), _bias(0.01), _bias(-0.002), controllers, duration=0.4)
     assert [s.rms for s in seps] == pytest.approx([0.012 / np.sqrt(3)] * 2, rel=1e-9)
     same = separations((), _bias(0.01), _bias(0.01), controllers, duration=0.4, recorded=["flop"])
-    assert [s.rms for s in same] == [0.0, 0.0]    # same model, same seed: the same trajectory
+    assert [s.rms for s in same] == [0.0, 0.0]    # the same model: the same trajectory, bit for bit
     assert {s.label: s.recorded for s in same} == {"brief": False, "flop": True}
 
 
@@ -37,6 +37,6 @@ def test_candidates_cover_each_heading_and_pattern_and_bad_input_is_refused() ->
     assert sorted({round(u.heading, 6) for u in flops.values()}) == pytest.approx([0.0, 2 * np.pi / 3, 4 * np.pi / 3])
     with pytest.raises(CriticismError, match="headings >= 1"):
         flop_candidates(headings=0)
-    screened = Candidate("sensor_bias", "effect", {}, 0.0, 0.0, 0.0, 0.0, config=SensorBias().config())
+    without_fit = Candidate("sensor_bias", "effect", {}, 0.0, 0.0, 0.0, 0.0, config=SensorBias().config())
     with pytest.raises(CriticismError, match="fitted parameter vectors"):
-        separations((), screened, _bias(0.0), {"flop": FlopController()})
+        separations((), without_fit, _bias(0.0), {"flop": FlopController()})
