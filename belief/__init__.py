@@ -1,6 +1,7 @@
 """What we believe about θ: grids over a latent box, the GP surrogate (pyro), log expected
 improvement, the posterior P over the grid and its Belief object with verdicts (and the parameters
-pinned at a bound of the box, evidence of model inadequacy), noise rules for
+pinned at a bound of the box, evidence of model inadequacy), the identifiability map (what the
+data pin: directions, symmetries, inert parameters), noise rules for
 data with model error, proposers and the identification driver (Zhu et al. 2018, Algorithm 1),
 and its SQLite journal.
 
@@ -23,6 +24,7 @@ from belief.errors import (
 )
 from belief.grid import CandidateSet, Grid, SobolCandidates, candidates_from_config
 from belief.handoff import Carried, carry_over, continue_in
+from belief.identifiability import Direction, Identifiability, Symmetry, identifiability
 from belief.identify import identify
 from belief.journal import Journal, Record
 from belief.least_squares import LocalStep, StepConfig, gauss_newton_step
@@ -68,4 +70,5 @@ __all__ = [
     "identify", "search", "problem_fingerprint", "DEFAULT_PRESET", "PRESETS", "Preset", "PresetWarning", "run_preset",
     "IdentificationResult", "Carried", "carry_over", "continue_in",
     "LocalStep", "StepConfig", "gauss_newton_step", "AT_BOUND_TOLERANCE", "AtBound", "at_bounds",
+    "Direction", "Identifiability", "Symmetry", "identifiability",
 ]

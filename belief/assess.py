@@ -42,9 +42,10 @@ from belief.bounds import AtBound, at_bounds
 from belief.errors import BeliefError, BudgetWarning
 from belief.grid import CandidateSet
 from belief.journal import Record
-from belief.least_squares import LocalStep, gauss_newton_step
+from belief.least_squares import DEFAULT_FIT, FitConfig, LocalStep, gauss_newton_fit, gauss_newton_step
 from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
+from belief.scale import ScaleConfig, calibrated_scale
 from belief.spread import CellSpread
 from belief.surrogate import GPSurrogate, SurrogateConfig
 from belief.verdicts import (
@@ -93,10 +94,11 @@ def _residuals(objective: Objective, theta: np.ndarray) -> list[np.ndarray] | No
 
 
 def noise_level(objective: Objective, config: PosteriorConfig, errors: np.ndarray, parts: np.ndarray,
-                best_theta: np.ndarray, *, dim: int) -> NoiseLevel:
+                best_theta: np.ndarray, *, dim: int, fit: LocalFinish | None = None) -> NoiseLevel:
     """σ² of E and of each of its S segments (step 1 of the module docstring).
 
-    ``errors``: E of the successful evaluations (n,); ``parts``: their segment errors (n x S).
+    ``errors``: E of the successful evaluations (n,); ``parts``: their segment errors (n x S);
+    ``fit``: the local fit, which the "calibrated" rule needs (without one it falls back to "ess").
     """
     S = parts.shape[1]
     if config.mode != "likelihood":
@@ -105,8 +107,15 @@ def noise_level(objective: Objective, config: PosteriorConfig, errors: np.ndarra
     if given is not None:
         rule = _KNOWN[0] if config.noise_var is not None else _KNOWN[1]
         return NoiseLevel(float(given), (float(given),) * S, rule)
+    if config.noise_rule == "calibrated" and fit is not None and len(fit.residuals) == S:
+        scale = calibrated_scale(fit.residuals, fit.step.jacobian, noise_floor=objective.noise_floor,
+                                 config=ScaleConfig(discrepancy=config.discrepancy),
+                                 least=1e-12 * float(np.nanmedian(errors)))
+        segs = tuple(max(scale.blocks_var, 0.5 * scale.discrepancy * float(np.nansum(r ** 2)), 1e-300)
+                     for r in fit.residuals)
+        return NoiseLevel(scale.noise_var, segs, "calibrated", scale.as_dict())
     K = int(objective.n_observations)
-    res = _residuals(objective, best_theta) if config.noise_rule == "ess" else None
+    res = _residuals(objective, best_theta) if config.noise_rule in ("ess", "calibrated") else None
     if res is None or len(res) != S:
         why = "iid" if config.noise_rule == "iid" else "iid (the objective gives no residuals per segment)"
         total = iid_noise_var(errors, n_observations=K, dim=dim)
@@ -119,6 +128,31 @@ def noise_level(objective: Objective, config: PosteriorConfig, errors: np.ndarra
     return NoiseLevel(total, segs, "ess", {"n_observations": size.n, "n_effective": size.n_eff,
                                           "tau": list(size.tau), "coords": list(size.coords),
                                           "discrepancy": delta, "segment_discrepancy": d_seg})
+
+
+@dataclass(frozen=True)
+class LocalFinish:
+    """The local fit from the best evaluation: its end point and Jacobian there (``step``), the
+    residuals there (S arrays), and the record for the Belief's attrs["local_fit"]."""
+
+    step: LocalStep
+    residuals: list[np.ndarray]
+    info: dict[str, Any]
+
+
+def local_finish(objective: Objective, best_theta: np.ndarray | Sequence[float], config: FitConfig = DEFAULT_FIT
+                 ) -> tuple[LocalFinish | None, dict[str, Any]]:
+    """Gauss-Newton to convergence from the best evaluated θ (belief.least_squares.gauss_newton_fit), or
+    None and why (no residuals; a simulation that diverged is reported there, not hidden)."""
+    try:
+        step, residuals = gauss_newton_fit(objective, np.asarray(best_theta, dtype=float), config)
+    except NoResidualsError:
+        return None, {"skipped": "the objective gives no residuals"}
+    except (BeliefError, PhysicsError) as exc:
+        return None, {"skipped": str(exc)}
+    info: dict[str, Any] = {"theta": [float(v) for v in step.theta], "error": step.error,
+                            "start_error": step.start_error, "evaluations": step.evaluations, "converged_fit": True}
+    return LocalFinish(step, [np.asarray(r, dtype=float) for r in residuals], info), info
 
 
 def _segment_marginals(records: Sequence[Record], grid: CandidateSet, theta_cells: np.ndarray, space: ParameterSpace,
@@ -203,13 +237,27 @@ def _refine(objective: Objective, best: Record, noise: NoiseLevel, P: xr.DataArr
     return _Refinement(marg, local, conflicts, ratio, spread)
 
 
+def _centred(fit: LocalFinish, cell: int, noise_var: float, P: xr.DataArray, theta_cells: np.ndarray,
+             space: ParameterSpace, *, config: PosteriorConfig) -> _Refinement:
+    """The best cell's mass as the local posterior of the fit that ran from it: N(θ̂, σ² (JᵀJ)⁻¹)
+    truncated to the box, θ̂ the fit's end point (belief.spread); its local std also gives the
+    "local width" ratio. The fit is the minimum the interval is centred on, so no "local refit"
+    conflict can arise."""
+    std = fit.step.laplace_std(noise_var)
+    spread = CellSpread(cell, tuple(std), tuple(fit.step.theta), tuple(map(tuple, fit.step.draw_cov(noise_var))))
+    marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio, spread=spread)
+    info = {**fit.info, "std": [float(v) for v in std]}
+    return _Refinement(marg, info, {}, std / np.maximum(fit.step.width / np.sqrt(12.0), 1e-300), spread)
+
+
 def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: Sequence[Record], model: GPSurrogate, *,
            config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
-           verdict_config: VerdictConfig | None = None) -> Belief:
+           verdict_config: VerdictConfig | None = None, fit_config: FitConfig = DEFAULT_FIT) -> Belief:
     """The Belief of an identification run (module docstring).
 
     ``records``: every evaluation (journal Records, ``status`` "ok" for successes, ``parts`` per
-    segment); ``model``: the GP fitted to all evaluations; ``seed``: minimizer-mode sampling.
+    segment); ``model``: the GP fitted to all evaluations; ``seed``: minimizer-mode sampling;
+    ``fit_config``: the local fit of the "calibrated" noise rule.
     """
     vcfg = verdict_config or VerdictConfig(identified_ratio=config.identified_ratio)
     ok = [r for r in records if r.status == "ok"]
@@ -223,7 +271,12 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     parts = np.array([r.parts for r in ok], dtype=float) if whole else errors[:, None]
     if parts.shape[1] != len(segments):
         segments = ("all",)
-    noise = noise_level(objective, config, errors, parts, np.asarray(best.theta), dim=decoder.dim)
+    fit: LocalFinish | None = None
+    fit_info: dict[str, Any] = {}
+    if config.mode == "likelihood" and config.noise_var is None and objective.noise_var is None \
+            and config.noise_rule == "calibrated":
+        fit, fit_info = local_finish(objective, best.theta, fit_config)
+    noise = noise_level(objective, config, errors, parts, np.asarray(best.theta), dim=decoder.dim, fit=fit)
     failed = np.zeros(grid.size, dtype=bool)
     failed[[r.cell for r in records if r.status != "ok"]] = True
     pred = model.predict(grid.points)
@@ -242,15 +295,21 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts=conflicts, config=vcfg)
     refined = _Refinement(marg, {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"})
-    if vcfg.refit and any(v != "not identified" for v in verdicts):
+    fitted = np.asarray(best.theta, dtype=float)
+    if fit is not None and noise.total is not None:
+        refined = _centred(fit, best.cell, noise.total, P, theta_cells, space, config=config)
+        fitted = fit.step.theta
+    elif vcfg.refit and any(v != "not identified" for v in verdicts):
         refined = _refine(objective, best, noise, P, theta_cells, space, config=config, vcfg=vcfg, marg=marg)
+    elif fit_info:
+        refined = _Refinement(marg, fit_info)
     marg, local, extra, ratio, spread = refined.marg, refined.local, refined.conflicts, refined.ratio, refined.spread
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
-    verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, config=vcfg, local_ratio=ratio,
+    verdicts, reasons = decide(marg, best_theta=fitted, verified=vmass, config=vcfg, local_ratio=ratio,
                                conflicts={**extra, **conflicts,
                                           **{a.name: because("at bound", a.reason()) for a in at_bound}})
     best_mass = float(p[best.cell])
-    trust = trust_note(marg, verdicts, best_theta=best.theta, verified=vmass, best_mass=best_mass, config=vcfg,
+    trust = trust_note(marg, verdicts, best_theta=fitted, verified=vmass, best_mass=best_mass, config=vcfg,
                        local_ratio=ratio)
     warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim)
     if warn:

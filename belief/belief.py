@@ -42,7 +42,7 @@ from belief.errors import BeliefError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.posterior import entropy, marginals
 from belief.serial import jsonable, short, space_from_dataset, space_variables
-from belief.spread import CellSpread
+from belief.spread import CellSpread, ComplementSpread, complement_draws, spread_draws
 from belief.verdicts import VERDICTS, default_verdicts, rule_of
 from embeddings import Decoder, decoder_from_config
 from physics.parameters import ParameterSpace
@@ -108,6 +108,11 @@ def _check_verdicts(verdicts: Sequence[str] | None, reasons: Sequence[str] | Non
     return tuple(str(x) for x in v), tuple(r)
 
 
+def _spread_from(record: Mapping[str, Any]) -> CellSpread | ComplementSpread:
+    """The spread a saved belief carries, by its kind."""
+    return ComplementSpread.from_dict(record) if record.get("kind") == "complement" else CellSpread.from_dict(record)
+
+
 class Belief:
     """Posterior P over n cells with the decoded θ (``n x D``), verdicts and provenance (module docstring).
 
@@ -124,7 +129,7 @@ class Belief:
                  decoder_config: Mapping[str, Any], grid_config: Mapping[str, Any],
                  verdicts: Sequence[str] | None = None, reasons: Sequence[str] | None = None,
                  attrs: Mapping[str, Any] | None = None, level: float = 0.9,
-                 grid: CandidateSet | None = None, spread: CellSpread | None = None) -> None:
+                 grid: CandidateSet | None = None, spread: CellSpread | ComplementSpread | None = None) -> None:
         if not isinstance(space, ParameterSpace):
             raise BeliefError(f"space must be a physics ParameterSpace, got {type(space).__name__}.")
         if not isinstance(decoder_config, Mapping) or not isinstance(decoder_config.get("kind"), str):
@@ -148,10 +153,14 @@ class Belief:
                               f"decoder.decode(grid.points)), got shape {th.shape}.")
         th.setflags(write=False)
         self.theta, self.space, self.level = th, space, float(level)
-        if spread is not None and (not isinstance(spread, CellSpread) or spread.cell >= self.P.size
-                                   or len(spread.std) != space.dim):
+        if isinstance(spread, ComplementSpread):
+            if len(spread.std) != space.dim:
+                raise BeliefError(f"a ComplementSpread needs a {space.dim} x {space.dim} covariance, got "
+                                  f"{len(spread.std)} x {len(spread.std)}.")
+        elif spread is not None and (not isinstance(spread, CellSpread) or spread.cell >= self.P.size
+                                     or len(spread.std) != space.dim):
             raise BeliefError(f"spread must be a CellSpread of one of the {self.P.size} cells with {space.dim} stds, "
-                              f"got {short(spread)}.")
+                              f"or a ComplementSpread, got {short(spread)}.")
         self.spread = spread
         self.verdict, self.reason = _check_verdicts(verdicts, reasons, lambda: self._numbers(self.level), space.dim)
         entries_from_records(self.attrs.get("at_bounds"), space.names)    # fails early on corrupt records
@@ -269,8 +278,20 @@ class Belief:
         return rng.choice(p.size, size=int(n), p=p / p.sum()).astype(np.int64)
 
     def sample(self, n: int, *, seed: int | np.random.Generator) -> np.ndarray:
-        """n draws of θ, ``n x D``: cells drawn with probability P (:meth:`sample_cells`), θ = their decoded centres."""
-        return self.theta[self.sample_cells(n, seed=seed)]
+        """n draws of θ, ``n x D``: cells drawn with probability P (:meth:`sample_cells`), θ = their decoded
+        centres; draws of a spread cell with a local covariance come from its truncated normal
+        (belief.spread.spread_draws), and every draw of a local belief carries a draw of its complement
+        (belief.spread.complement_draws), so they keep the local posterior's correlations."""
+        cells = self.sample_cells(n, seed=seed)
+        out = self.theta[cells].copy()
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng([int(seed), 1])
+        if isinstance(self.spread, ComplementSpread):
+            return complement_draws(self.spread, out, self.space.lower, self.space.upper, rng)
+        if self.spread is not None and self.spread.cov is not None:
+            hit = cells == self.spread.cell
+            out[hit] = spread_draws(self.spread, self.theta[self.spread.cell], self.space.lower, self.space.upper,
+                                    int(hit.sum()), rng)
+        return out
 
     def decoder(self) -> Decoder:
         """The decoder that produced this belief, rebuilt by ``embeddings.decoder_from_config`` (checked equal)."""
@@ -298,8 +319,10 @@ class Belief:
                 row += f"{tr[j]:>10.5g}{' ' if lo <= tr[j] <= hi else '!'}"
             side = m["at_bound"].values[j]
             lines.append(row + f"  {self.verdict[j]}" + (f" (at {side} bound)" if side else ""))
-        lines.append(f"{self.level:.0%} credible intervals"
-                     + (" (the best evaluated cell spread by its local width)" if self.spread is not None else "")
+        how = {CellSpread: " (the best evaluated cell spread by its local width)",
+               ComplementSpread: " (local grid at the data's resolution; the other directions spread by their "
+                                 "local posterior)"}.get(type(self.spread), "")
+        lines.append(f"{self.level:.0%} credible intervals" + how
                      + "; verdict reasons: Belief.verdicts"
                      + ("; '!' marks a truth outside the interval" if tr is not None else ""))
         block = inadequacy_text(self.at_bounds, tolerance=self.attrs.get("bound_tolerance", AT_BOUND_TOLERANCE))
@@ -344,7 +367,7 @@ class Belief:
             P = ds["P"].transpose(*json.loads(ds.attrs["P_dims"]))
             P.attrs = json.loads(ds.attrs["P_attrs"]) if "P_attrs" in ds.attrs else dict(ds["P"].attrs)
             configs = [json.loads(ds.attrs[k]) for k in ("decoder_config", "grid_config", "attrs")]
-            spread = CellSpread.from_dict(json.loads(ds.attrs["spread"])) if "spread" in ds.attrs else None
+            spread = _spread_from(json.loads(ds.attrs["spread"])) if "spread" in ds.attrs else None
         except (ValueError, TypeError) as exc:
             raise BeliefError(f"the belief Dataset has a corrupt attribute ({exc}); re-save the belief.") from None
         return cls(P, ds["theta"].values, space_from_dataset(ds), decoder_config=configs[0], grid_config=configs[1],

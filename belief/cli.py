@@ -26,7 +26,10 @@ first trajectory for trajectory data), and journals to
 ``DIR/journal.sqlite`` (the latent stage to ``DIR/journal-latent.sqlite``) so an interrupted run
 resumes when re-run; a journal of another problem is set aside (``journal.1.sqlite``) unless
 ``--resume``. The prior box: ``--nominal NAME=VALUE``, ``--bounds NAME=LO:HI``, ``--params FILE``
-(physics.prior_box), saved as ``prior_box.json``. ``--effects A B`` or ``--model DIR/model.json``
+(physics.prior_box), saved as ``prior_box.json``. What you know: ``--measured NAME=VALUE+-SD`` (a parameter
+or rod_mass, total_mass, rod_inertia) and ``--fix NAME=VALUE`` (held, not identified), checked against the box before
+anything runs (physics.measurements) and recorded in result.nc and summary.txt; the fixed ones leave the search, the
+measured ones do not change P in this version. ``--effects A B`` or ``--model DIR/model.json``
 (written by ``tensegrid diagnose``: the components and effects it added) identify the T6 with those
 effects, their parameters in their own boxes (physics.model_file). When the data files carry the θ that generated
 them (simulated data do), the summary shows it next to P's intervals. The data files are checked
@@ -41,9 +44,11 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
-from belief.noise import DEFAULT_DISCREPANCY
+from belief.noise import DEFAULT_DISCREPANCY, NOISE_RULES
 from belief.presets import DEFAULT_PRESET, PRESETS
+from physics.measurements import add_measurement_options
 from physics.prior_box import add_prior_box_options, box_record
+from physics.state_estimation import STATE_METHODS, StateEstimator
 
 if TYPE_CHECKING:                   # the engine and torch load only when a command needs them
     import numpy as np
@@ -54,10 +59,10 @@ if TYPE_CHECKING:                   # the engine and torch load only when a comm
     from belief.result import IdentificationResult
     from embeddings.base import Decoder
     from physics.effects import Effect
+    from physics.measurements import MeasurementPrior
     from physics.objective import Objective
     from physics.parameters import ParameterSpace
     from physics.push import PushObjective
-    from physics.trajectory_objective import TrajectoryObjective
 
 __all__ = ["register_identify", "run_identify"]
 
@@ -75,6 +80,7 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     _add_error_options(p.add_argument_group("error and posterior"))
     _add_model_options(p)
     add_prior_box_options(p)
+    add_measurement_options(p)
     run = p.add_argument_group("run")
     run.add_argument("--out", required=True, help="output directory")
     run.add_argument("--journal", default=None, help="SQLite journal (default OUT/journal.sqlite); 'none' disables")
@@ -120,12 +126,17 @@ def _add_error_options(g: argparse._ArgumentGroup) -> None:
     g.add_argument("--windows", type=int, default=3,
                    help="T6 error: contiguous segments per trajectory whose errors sum to E (default 3)")
     g.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
-    g.add_argument("--noise-rule", choices=["ess", "iid"], default="ess",
-                   help="sigma^2 when not given: 'ess' (effective residual count and discrepancy, default) or 'iid' "
-                        "(E_min / (K - d), for comparison); docs/identification.md")
+    g.add_argument("--noise-rule", choices=list(NOISE_RULES), default="calibrated",
+                   help="sigma^2 when not given: 'calibrated' (block sandwich at the local fit, the model-error floor "
+                        "only where the residuals exceed what the measured noise leaves; default), 'ess' (effective "
+                        "residual count, the floor always) or 'iid' (E_min / (K - d)); docs/identification.md")
     g.add_argument("--discrepancy", type=float, default=DEFAULT_DISCREPANCY,
-                   help=f"ess rule: relative excess error that costs one nat at least, a prior on model error "
-                        f"(default {DEFAULT_DISCREPANCY}; 0.05 for data from this very model)")
+                   help=f"relative excess error that costs one nat at least where the model falls short of the "
+                        f"data, a prior on model error (default {DEFAULT_DISCREPANCY})")
+    g.add_argument("--states", choices=list(STATE_METHODS), default="local-polynomial",
+                   help="T6 error: how the states predictions start from are estimated from positions: "
+                        "'local-polynomial' (leaves out the compared sample; default) or 'backward' (the paper's "
+                        "backward difference, biased under noise); physics.state_estimation")
     g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
                    help="physics step; must divide every file's sampling interval (default: per file, the largest "
                         "step <= 1 ms that does; docs/data-format.md)")
@@ -167,16 +178,18 @@ def _data_truth(datasets: list[xr.Dataset], space: ParameterSpace) -> np.ndarray
 
 
 def _objective(args: argparse.Namespace, effects: tuple[Effect, ...], cleanup: contextlib.ExitStack
-               ) -> tuple[PushObjective | TrajectoryObjective, np.ndarray | None, list[xr.Dataset]]:
-    """(objective, true θ or None, datasets) from the data files or the toy, over the prior box of
-    --nominal, --bounds and --params (validated before the data are loaded), with ``effects``; a
-    trajectory objective's workers close with ``cleanup``."""
+               ) -> tuple[Objective, np.ndarray | None, list[xr.Dataset], MeasurementPrior]:
+    """(objective, true θ or None, datasets, what the user knows) from the data files or the toy, over the
+    prior box of --nominal, --bounds and --params with --measured and --fix checked on it (all before the
+    data are loaded), with ``effects``; a trajectory objective's workers close with ``cleanup``."""
+    from physics.measurements import measurement_prior_from_args
     from physics.prior_box import prior_box_from_args
 
     space = prior_box_from_args(args, _default_space(args, effects))
+    known = measurement_prior_from_args(args, space)        # MeasurementError before the data are loaded
     if args.toy == "push":
-        objective, truth = _push_objective(args.seed, space)
-        return objective, truth, []
+        push, truth = _push_objective(args.seed, space)
+        return known.hold(push), known.free(truth), [], known
     from physics.predictor import dt_option
     from physics.trajectory import load_trajectory
     from physics.trajectory_objective import TrajectoryObjective
@@ -189,8 +202,9 @@ def _objective(args: argparse.Namespace, effects: tuple[Effect, ...], cleanup: c
         preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
     trajectories = cleanup.enter_context(TrajectoryObjective(
         datasets, space=space, horizon=1, loss=args.loss, windows=args.windows, options=options,
-        n_workers=args.workers if args.workers > 1 else 0, effects=effects))
-    return trajectories, _data_truth(datasets, trajectories.space), datasets
+        n_workers=args.workers if args.workers > 1 else 0, effects=effects, states=StateEstimator(method=args.states)))
+    data_truth = _data_truth(datasets, trajectories.space)
+    return known.hold(trajectories), None if data_truth is None else known.free(data_truth), datasets, known
 
 
 def _latent_decoder(args: argparse.Namespace, space: ParameterSpace) -> Decoder | None:
@@ -236,10 +250,11 @@ def _preset(args: argparse.Namespace) -> Preset:
     return replace(preset, candidates=args.candidates, points_per_dim=args.points_per_dim or 11)
 
 
-def _run(args: argparse.Namespace, objective: Objective, decoder: Decoder | None, effects: tuple[Effect, ...]
-         ) -> tuple[IdentificationResult, Decoder, CandidateSet]:
+def _run(args: argparse.Namespace, objective: Objective, decoder: Decoder | None, effects: tuple[Effect, ...],
+         known: MeasurementPrior) -> tuple[IdentificationResult, Decoder, CandidateSet]:
     """(result, decoder, grid of P) of the preset with the command line's options; a budget warning goes
-    into the summary, not stderr; a journal of another problem is set aside unless --resume."""
+    into the summary, not stderr; a journal of another problem is set aside unless --resume. The config
+    records the whole prior box and what the user measured and fixed (``known``)."""
     import warnings
 
     from belief.errors import BeliefError, BudgetWarning
@@ -256,11 +271,14 @@ def _run(args: argparse.Namespace, objective: Objective, decoder: Decoder | None
         result = run_with_journals(
             lambda: run_preset(objective, _preset(args), budget=args.budget, seed=args.seed, decoder=decoder,
                                journal=journal, posterior=config, time_budget=args.time_budget, q=args.q,
+                               measurements=known if known.measurements else None,
                                progress=not args.no_progress),
             resume=args.resume, say=_note)
     for note in dict.fromkeys(str(n.message) for n in caught):     # one line each, once
         _note(note)
-    result.config["prior_box"] = box_record(objective.space)
+    result.config["prior_box"] = box_record(known.space)
+    result.config["measurements"] = known.config()["measurements"]
+    result.config["fixed"] = dict(known.fixed)
     result.config["effects"] = [e.config() for e in effects]      # the model identified (physics.model_file)
     if result.belief is None:       # run_preset builds one whenever a posterior mode is set, as here
         raise BeliefError("the identification returned no belief; the command line needs its posterior.")
@@ -325,10 +343,11 @@ def _budget_note(args: argparse.Namespace, decoder: Decoder | None, dim: int) ->
             f"--budget {args.budget - search + n_init + 1} or more.")
 
 
-def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder | None, effects: tuple[Effect, ...]
-                ) -> None:
+def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder | None, effects: tuple[Effect, ...],
+                known: MeasurementPrior) -> None:
     """The checks and notes due before anything is written: the budget, a journal to --resume, the
-    prior box (printed when it differs from the default) and a budget that leaves BO no step."""
+    prior box (every parameter, printed when it differs from the default), a budget that leaves BO no step
+    and what the measurements do."""
     from belief.errors import BudgetError, JournalError
     from physics.outputs import check_output_file
     from physics.prior_box import box_changes
@@ -343,13 +362,16 @@ def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder
         latent = None if journal is None else os.path.splitext(journal)[0] + "-latent.sqlite"
         if journal is None or not (os.path.exists(journal) or os.path.exists(str(latent))):
             raise JournalError(f"--resume: no journal at {journal} to resume; run without --resume to start one.")
-    changes = box_changes(objective.space, _default_space(args, effects))
+    changes = box_changes(known.space, _default_space(args, effects))
     if changes:
-        print(f"prior box: {len(changes)} of {objective.space.dim} parameters differ from the default:\n  "
+        print(f"prior box: {len(changes)} of {known.space.dim} parameters differ from the default:\n  "
               + "\n  ".join(changes))
     note = _budget_note(args, decoder, objective.space.dim)
     if note:
         _note(note)
+    if known.measurements:
+        _note("--measured values enter the posterior of the local stage (belief.local_belief; presets ending in "
+              "'-gn' on data whose noise is measured), not the global search; recorded in result.nc and summary.txt")
 
 
 def run_identify(args: argparse.Namespace) -> int:
@@ -366,17 +388,17 @@ def run_identify(args: argparse.Namespace) -> int:
         try:
             check_output_dir(args.out)
             effects = _effects(args)            # the model file is read once; refused with the toy
-            objective, truth, datasets = _objective(args, effects, cleanup)
+            objective, truth, datasets, known = _objective(args, effects, cleanup)
             latent = _latent_decoder(args, objective.space)
-            _before_run(args, objective, latent, effects)
+            _before_run(args, objective, latent, effects, known)
             with output_dir(args.out):          # removed again if the run fails before writing into it
-                result, decoder, grid = _run(args, objective, latent, effects)
+                result, decoder, grid = _run(args, objective, latent, effects, known)
         except TensegridError as exc:
             print(f"tensegrid identify: {exc}", file=sys.stderr)
             return 2
-    write_outputs(args, result, decoder, grid, truth, datasets, effects)
+    write_outputs(args, result, decoder, grid, truth, datasets, effects, known=known)
     print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
-    print(result.summary(truth=truth))
+    print("\n".join(filter(None, [result.summary(truth=truth), known.summary()])))
     print(f"wrote {args.out}/report.html (one page to hand on), result.nc, summary.txt, marginals.csv, history.csv, "
           "prior_box.json and figures")
     return 0

@@ -16,15 +16,18 @@ if TYPE_CHECKING:
     from belief.result import IdentificationResult
     from embeddings.base import Decoder
     from physics.effects import Effect
+    from physics.measurements import MeasurementPrior
     from physics.parameters import ParameterSpace
 
 __all__ = ["write_outputs", "plot_rollouts"]
 
 
 def write_outputs(args: argparse.Namespace, result: IdentificationResult, decoder: Decoder, grid: CandidateSet,
-                  truth: np.ndarray | None, datasets: list[xr.Dataset], effects: tuple[Effect, ...]) -> None:
+                  truth: np.ndarray | None, datasets: list[xr.Dataset], effects: tuple[Effect, ...], *,
+                  known: MeasurementPrior | None = None) -> None:
     """result.nc, summary.txt, marginals.csv, history.csv, prior_box.json (a --params file of the run's
-    box), the figures and report.html into ``args.out``."""
+    box), the figures and report.html into ``args.out``. ``known``: what the user measured and fixed (its
+    block ends summary.txt; the rollouts insert the fixed values)."""
     import numpy as np
     import pandas as pd
 
@@ -38,7 +41,8 @@ def write_outputs(args: argparse.Namespace, result: IdentificationResult, decode
     out, space, P, marginals = args.out, decoder.space, belief.P, belief.marginals()
     result.save(os.path.join(out, "result.nc"))
     with open(os.path.join(out, "summary.txt"), "w") as fh:
-        fh.write(result.summary(truth=truth) + "\n")
+        user = "" if known is None else known.summary()        # what the user measured and fixed
+        fh.write("\n".join(filter(None, [result.summary(truth=truth), user])) + "\n")
     marginals.to_dataframe().to_csv(os.path.join(out, "marginals.csv"))
     with open(os.path.join(out, "prior_box.json"), "w") as fh:
         json.dump(result.config["prior_box"], fh, indent=1)
@@ -56,8 +60,12 @@ def write_outputs(args: argparse.Namespace, result: IdentificationResult, decode
     if datasets:
         title = (f"observed vs rollout predictions: {os.path.basename(args.data[0])} (first of {len(datasets)} files)"
                  if len(datasets) > 1 else "")
-        plot_rollouts(datasets[0], space, result.best_theta.values, marginals["mean"].values,
-                      os.path.join(out, "observed_vs_predicted.png"), effects, title=title)
+        best, mean = np.asarray(result.best_theta.values), np.asarray(marginals["mean"].values)
+        whole = space
+        if known is not None:           # the fixed parameters back in: the rollouts simulate the whole model
+            whole, best, mean = known.space, known.full(best), known.full(mean)
+        plot_rollouts(datasets[0], whole, best, mean, os.path.join(out, "observed_vs_predicted.png"), effects,
+                      title=title)
     plot_pairs(belief, os.path.join(out, "pairs.png"), truth=truth)
     write_identify_report(out, result, args, datasets, truth=truth)
 

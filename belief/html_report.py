@@ -357,6 +357,10 @@ def write_identify_report(out: str | os.PathLike[str], result: IdentificationRes
     evaluated = h["theta"].values[ok[np.argmin(h["error"].values[ok])]] if ok.size else None
     parameter_table(page, belief, best=np.asarray(result.best_theta.values, dtype=float), truth=truth,
                     evaluated=evaluated)
+    pin = result.identifiability
+    if pin is not None:
+        page.subsection("What the data pin")
+        page.code("\n".join(pin.lines()))
     page.details("summary.txt", result.summary(truth=truth))
     page.section("Figures")
     for name, caption in _FIGURES:

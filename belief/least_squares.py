@@ -26,7 +26,8 @@ from scipy.optimize import least_squares as scipy_least_squares
 from belief.errors import BeliefError
 from physics.objective import Objective
 
-__all__ = ["LeastSquaresConfig", "LocalFit", "refine", "StepConfig", "DEFAULT_STEP", "LocalStep", "gauss_newton_step"]
+__all__ = ["LeastSquaresConfig", "LocalFit", "refine", "StepConfig", "DEFAULT_STEP", "LocalStep", "gauss_newton_step",
+           "FitConfig", "DEFAULT_FIT", "gauss_newton_fit"]
 
 
 @dataclass(frozen=True)
@@ -222,6 +223,25 @@ class LocalStep:
         cov = np.linalg.inv(F + tau * np.eye(F.shape[0]))
         return np.sqrt(np.clip(np.diag(cov), 0.0, None)) * self.width
 
+    def draw_cov(self, noise_var: float) -> np.ndarray:
+        """Covariance (D x D, θ units) for joint draws of the local posterior: (JᵀJ/σ² + 12 I)⁻¹ scaled
+        by the widths. 12 I is the precision of the uniform prior over the unit box, so a direction the
+        data do not see spreads over the box (its std 1/√12), not far beyond it where no draw lands."""
+        F = np.nan_to_num(self.jacobian).T @ np.nan_to_num(self.jacobian) / float(noise_var)
+        cov = np.linalg.pinv(F + 12.0 * np.eye(F.shape[0]), hermitian=True)
+        return cov * np.outer(self.width, self.width)
+
+
+def _delta(r: np.ndarray, J: np.ndarray, u: np.ndarray, config: StepConfig) -> np.ndarray:
+    """Δ = argmin ||r + JΔ||² + λ||Δ||² within the box and |Δ_j| <= radius (scipy's lsq_linear)."""
+    from scipy.optimize import lsq_linear
+
+    lam = config.ridge * max(float(np.mean(np.sum(J * J, axis=0))), 1e-300)
+    A = np.vstack([J, np.sqrt(lam) * np.eye(u.size)])
+    b = np.concatenate([-r, np.zeros(u.size)])
+    lower, upper = np.maximum(-u, -config.radius), np.minimum(1.0 - u, config.radius)
+    return lsq_linear(A, b, bounds=(lower, upper + 1e-15)).x
+
 
 def gauss_newton_step(objective: Objective, theta: np.ndarray, config: StepConfig = StepConfig()) -> LocalStep:
     """One damped Gauss-Newton step from θ (D,) over all parameters and segments.
@@ -230,22 +250,70 @@ def gauss_newton_step(objective: Objective, theta: np.ndarray, config: StepConfi
     Δ = argmin ||r + JΔ||² + λ||Δ||² subject to the box and |Δ_j| <= radius (scipy's lsq_linear);
     the trial points u + aΔ for a in ``lengths`` are evaluated in one more batch. Costs D + 1 +
     len(lengths) evaluations. The result's theta is the best point evaluated (the start if no
-    trial lowers E). Raises BeliefError if the simulation at θ fails, NoResidualsError if the
-    objective has no residuals (a wrapped plain function).
+    trial lowers E); its jacobian is the start's. Raises BeliefError if the simulation at θ fails,
+    NoResidualsError if the objective has no residuals (a wrapped plain function).
     """
-    from scipy.optimize import lsq_linear
-
     theta = np.asarray(theta, float).copy()
     problem = _Problem(objective, theta, list(range(theta.size)), np.ones(len(objective.segments), bool), config.step)
     u = np.clip(problem.unit(theta), 0.0, 1.0)
     r, J = problem.fun(u), problem.jac(u)
-    lam = config.ridge * max(float(np.mean(np.sum(J * J, axis=0))), 1e-300)
-    A = np.vstack([J, np.sqrt(lam) * np.eye(u.size)])
-    b = np.concatenate([-r, np.zeros(u.size)])
-    lower, upper = np.maximum(-u, -config.radius), np.minimum(1.0 - u, config.radius)
-    delta = lsq_linear(A, b, bounds=(lower, upper + 1e-15)).x
+    delta = _delta(r, J, u, config)
     problem.evaluate(np.clip(u[None] + np.asarray(config.lengths)[:, None] * delta[None], 0.0, 1.0))
     best_u, residuals = problem.best()
     error = float(sum(np.nansum(np.asarray(res) ** 2) for res in residuals))
     return LocalStep(problem.thetas(best_u[None])[0], error, float((r ** 2).sum()), problem.evaluations, J,
                      problem.width.copy())
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    """The local fit that ends an identification: at most ``steps`` damped Gauss-Newton steps
+    (each D + 1 + len(lengths) evaluations, ``step`` sets them), stopping once a step lowers E by
+    less than ``nats`` nats of the independent-noise likelihood, ``nats`` x 2 E/K (K residuals): a
+    relative tolerance would stop short by tens of nats on a long record; the Jacobian at the end
+    point costs D more when the last step moved."""
+
+    steps: int = 5
+    nats: float = 1.0
+    step: StepConfig = StepConfig()
+
+    def __post_init__(self) -> None:
+        if isinstance(self.steps, bool) or not isinstance(self.steps, (int, np.integer)) or self.steps < 1 \
+                or not (np.isfinite(self.nats) and self.nats > 0):
+            raise BeliefError(f"FitConfig needs steps >= 1 and nats > 0, got {self.steps!r}, {self.nats!r}.")
+
+    def cost(self, dim: int) -> int:
+        """The most evaluations the fit spends in a D = ``dim`` space."""
+        return self.steps * (dim + 1 + len(self.step.lengths)) + dim
+
+
+#: the default local fit (frozen, so one instance serves as every default argument)
+DEFAULT_FIT = FitConfig()
+
+
+def gauss_newton_fit(objective: Objective, theta: np.ndarray, config: FitConfig = DEFAULT_FIT
+                     ) -> tuple[LocalStep, list[np.ndarray]]:
+    """Damped Gauss-Newton steps (:func:`gauss_newton_step`'s) from θ (D,) until one lowers E by less
+    than ``config.nats`` x 2 E/K, at most ``config.steps``; returns the end point as a LocalStep
+    whose jacobian (K x D, unit box) is taken AT the end point (the Laplace approximation's), and
+    the residuals there (S arrays). Raises as :func:`gauss_newton_step`."""
+    theta = np.asarray(theta, float).copy()
+    cfg = config.step
+    problem = _Problem(objective, theta, list(range(theta.size)), np.ones(len(objective.segments), bool), cfg.step)
+    u = np.clip(problem.unit(theta), 0.0, 1.0)
+    start_error = error = float((problem.fun(u) ** 2).sum())
+    count = max(int(problem.fun(u).size), 1)
+    for _ in range(config.steps):
+        delta = _delta(problem.fun(u), problem.jac(u), u, cfg)
+        problem.evaluate(np.clip(u[None] + np.asarray(cfg.lengths)[:, None] * delta[None], 0.0, 1.0))
+        u_new, _ = problem.best()
+        new_error = float((problem.fun(u_new) ** 2).sum())
+        moved, gain = not np.array_equal(u_new, u), error - new_error
+        u, error = u_new, new_error
+        if not moved or gain <= config.nats * 2.0 * error / count:
+            break
+    J = problem.jac(u)
+    residuals = problem.full(u)
+    assert residuals is not None
+    return (LocalStep(problem.thetas(u[None])[0], error, start_error, problem.evaluations, J, problem.width.copy()),
+            residuals)

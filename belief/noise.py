@@ -59,8 +59,9 @@ from belief.errors import BeliefError
 __all__ = ["DEFAULT_DISCREPANCY", "NOISE_RULES", "EffectiveSize", "effective_size", "iid_noise_var",
            "noise_var_from_residuals", "segment_discrepancy"]
 
-#: the selectable rules for σ² when the objective does not know its noise
-NOISE_RULES = ("ess", "iid")
+#: the selectable rules for σ² when the objective does not know its noise ("calibrated": belief.scale,
+#: from the residuals and Jacobian at the local fit; the two below from the residuals alone)
+NOISE_RULES = ("calibrated", "ess", "iid")
 
 #: δ_0, the relative excess error over E_min that costs one nat at least (module docstring)
 DEFAULT_DISCREPANCY = 0.2

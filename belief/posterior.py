@@ -66,7 +66,7 @@ from scipy.special import log_ndtr, logsumexp
 
 from belief.errors import BeliefError
 from belief.noise import DEFAULT_DISCREPANCY, NOISE_RULES, iid_noise_var
-from belief.spread import CellSpread, spread_marginals
+from belief.spread import CellSpread, ComplementSpread, complement_marginals, spread_marginals
 
 if TYPE_CHECKING:
     from belief.grid import CandidateSet
@@ -110,7 +110,7 @@ class PosteriorConfig:
 
     mode: Literal["likelihood", "minimizer"] = "likelihood"
     noise_var: float | None = None
-    noise_rule: str = "ess"
+    noise_rule: str = "calibrated"
     floor: str = "auto"
     discrepancy: float = DEFAULT_DISCREPANCY
     n_samples: int = 2000
@@ -349,7 +349,7 @@ def marginals(
     *,
     level: float = 0.9,
     identified_ratio: float = 0.5,
-    spread: CellSpread | None = None,
+    spread: CellSpread | ComplementSpread | None = None,
 ) -> xr.Dataset:
     """Per-parameter summaries of P pushed through the decoder, in θ units.
 
@@ -363,7 +363,10 @@ def marginals(
     - ``identified`` = std < identified_ratio x prior_std (a uniform prior's std is width/sqrt(12),
       so with ratio 0.5 the posterior must be at least twice as narrow as the prior);
     - with ``spread`` (belief.spread), the spread cell's mass is its local truncated normal, not a
-      point: mean, std and the interval are the mixture's (map and prior moments unchanged).
+      point: mean, std and the interval are the mixture's (map and prior moments unchanged);
+    - with a :class:`~belief.spread.ComplementSpread` (a local belief, belief.local_belief), every
+      cell is spread by the complement's normal, and the prior is the box, uniform: prior_mean its
+      centre, prior_std its width / sqrt(12), reach 1.
 
     Returns an ``xarray.Dataset`` over dimension ``parameter`` (coordinate ``unit``).
     """
@@ -373,7 +376,10 @@ def marginals(
         raise BeliefError(f"theta must have shape ({p.size}, {space.dim}), got {th.shape}.")
     prior_mean = th.mean(axis=0)
     prior_std = th.std(axis=0)
-    if spread is not None:
+    if isinstance(spread, ComplementSpread):
+        prior_mean, prior_std = 0.5 * (space.lower + space.upper), (space.upper - space.lower) / np.sqrt(12.0)
+        mean, std, lower, upper = complement_marginals(p / p.sum(), th, spread, space.lower, space.upper, level)
+    elif spread is not None:
         mean, std, lower, upper = spread_marginals(p / p.sum(), th, spread, space.lower, space.upper, level)
     else:
         mean = p @ th

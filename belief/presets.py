@@ -38,11 +38,14 @@ from belief.errors import BeliefError, BudgetError
 from belief.grid import Grid, SobolCandidates
 from belief.handoff import continue_in
 from belief.least_squares import DEFAULT_STEP, StepConfig, gauss_newton_step
+from belief.local_belief import DEFAULT_LOCAL, LocalConfig, NoLocalStage, local_stage
+from belief.posterior import PosteriorConfig
 from belief.result import IdentificationResult
-from belief.search import search
+from belief.search import search, with_belief
 from embeddings import Decoder, Identity
 from embeddings.pretrained import pretrained_decoder
 from physics.errors import NoResidualsError
+from physics.measurements import MeasurementPrior
 from physics.objective import Objective, ObjectiveFunction, as_objective
 from physics.parameters import ParameterSpace
 
@@ -183,9 +186,40 @@ def _finish(result: IdentificationResult, objective: Objective, step: StepConfig
     return result
 
 
+def _local_posterior(options: dict[str, Any], objective: Objective) -> PosteriorConfig | None:
+    """The posterior config when the finish is the local stage (belief.local_belief): a likelihood
+    posterior whose σ² the "calibrated" rule measures; None otherwise (the Gauss-Newton step finishes)."""
+    posterior = options.get("posterior", "likelihood")
+    pcfg = PosteriorConfig() if posterior == "likelihood" else posterior
+    if not isinstance(pcfg, PosteriorConfig) or pcfg.mode != "likelihood" or pcfg.noise_var is not None \
+            or pcfg.noise_rule != "calibrated" or objective.noise_var is not None:
+        return None
+    return pcfg
+
+
+def _finish_locally(objective: Objective, result: IdentificationResult, pcfg: PosteriorConfig, *, name: str, seed: int,
+                    local: LocalConfig, prior: MeasurementPrior | None, journal: str | os.PathLike[str] | None,
+                    options: dict[str, Any]) -> IdentificationResult:
+    """The local stage after the global search; the global belief when it cannot run (nothing pinned,
+    no residuals: a :class:`PresetWarning` says why)."""
+    try:
+        return local_stage(objective, result, seed=seed, config=local, level=pcfg.level, prior=prior,
+                           verdict_config=options.get("verdict_config"), journal=journal,
+                           progress=bool(options.get("progress", True)))
+    except NoLocalStage as exc:
+        warnings.warn(f"preset {name!r}: the local stage needs residual vectors and a "
+                      f"direction the data pin ({exc}); the global search's belief is kept.", PresetWarning,
+                      stacklevel=4)
+    out = with_belief(objective, result, posterior=pcfg, surrogate=options.get("surrogate"),
+                      verdict_config=options.get("verdict_config"), seed=seed)
+    out.config["local_stage"] = None
+    return out
+
+
 def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = DEFAULT_PRESET, *, budget: int,
                seed: int, decoder: Decoder | None = None, journal: str | os.PathLike[str] | None = None,
                space: ParameterSpace | None = None, workers: int = 1, step: StepConfig = DEFAULT_STEP,
+               local: LocalConfig = DEFAULT_LOCAL, measurements: MeasurementPrior | None = None,
                on_stage: OnStage | None = None, **options: Any) -> IdentificationResult:
     """Identify θ by the recipe ``preset`` (module docstring) in ``budget`` evaluations.
 
@@ -206,6 +240,9 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
     objective = as_objective(objective, space, workers=workers)
     recipe, latent = _latent_decoder(resolve(preset), objective, decoder)
     on_stage = on_stage or (lambda name: None)
+    pcfg = _local_posterior(options, objective) if recipe.local_step and recipe.search is not None else None
+    if pcfg is not None:
+        recipe = replace(recipe, local_step=False)
     cost, least = _step_cost(recipe, objective.space.dim, step), minimum_budget(recipe, objective.space.dim, step)
     search_budget = budget - cost
     if budget < least:
@@ -213,12 +250,17 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
                           f"evaluations and a finishing step of {cost} leave too few for the search (the posterior "
                           f"needs 2 evaluations); give at least {least}.")
     result = _search(objective, recipe, latent, budget=search_budget, seed=seed, journal=journal, on_stage=on_stage,
-                     options=options)
+                     options=options if pcfg is None else {**options, "posterior": None})
+    if pcfg is not None:
+        on_stage("local")
+        result = _finish_locally(objective, result, pcfg, name=recipe.name, seed=seed, local=local, prior=measurements,
+                                 journal=journal, options=options)
     result.config["preset"] = recipe.name
     result.config["stages"] = ([f"latent ({type(latent).__name__}, {recipe.latent or search_budget} evaluations)"]
                                if latent is not None else []) + \
         ([f"{recipe.search} over the full space"] if recipe.search else []) + \
-        ([f"Gauss-Newton step ({cost} evaluations)"] if recipe.local_step else [])
+        ([f"Gauss-Newton step ({cost} evaluations)"] if recipe.local_step else []) + \
+        (["local stage (belief.local_belief)"] if pcfg is not None and result.config.get("local_stage") else [])
     if recipe.local_step:
         on_stage("local_step")
         result = _finish(result, objective, step)

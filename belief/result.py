@@ -19,8 +19,10 @@ import xarray as xr
 from belief.belief import Belief
 from belief.bounds import AtBound
 from belief.errors import BeliefError
+from belief.identifiability import Identifiability
 from belief.journal import Record
 from belief.posterior import credible_region
+from belief.scale import Scale
 from physics.parameters import ParameterSpace
 
 __all__ = ["IdentificationResult", "history_dataset", "noise_text", "FORMAT"]
@@ -29,7 +31,7 @@ FORMAT = "tensegrid.identification/2"
 
 
 def noise_text(attrs: dict[str, Any]) -> str:
-    """One line on what set the likelihood's σ² (belief.noise), from a Belief's attrs; "" without one.
+    """One line on what set the likelihood's σ² (belief.noise, belief.scale), from a Belief's attrs; "" without one.
 
     Under the "ess" rule σ² = max(E_min / K_eff, δ E_min / 2): the line names the larger term, so a
     reader sees whether the residuals' own count or the discrepancy δ (the model-error prior δ_0,
@@ -37,6 +39,8 @@ def noise_text(attrs: dict[str, Any]) -> str:
     sigma2, rule, info = attrs.get("noise_var"), attrs.get("noise_rule"), attrs.get("noise") or {}
     if sigma2 is None or not rule:
         return ""
+    if rule == "calibrated" and "blocks_var" in info:
+        return Scale(**info).text()
     if rule != "ess" or "discrepancy" not in info:
         return f"likelihood σ² = {sigma2:.4g} ({rule})"
     delta, seg = float(info["discrepancy"]), float(info["segment_discrepancy"])
@@ -116,8 +120,25 @@ class IdentificationResult:
         return () if self.belief is None else self.belief.at_bounds
 
     @property
+    def identifiability(self) -> Identifiability | None:
+        """What the data pin, named (belief.identifiability), when the run ended with the local stage."""
+        record = None if self.belief is None else self.belief.attrs.get("identifiability")
+        return None if record is None else Identifiability.from_dict(record)
+
+    @property
     def n_evaluations(self) -> int:
         return int(self.history.sizes["evaluation"])
+
+    def records(self) -> list[Record]:
+        """The evaluations of :attr:`history` as journal Records, in its order (segment errors kept for
+        successful ones)."""
+        h = self.history
+        parts = np.asarray(h["parts"].values, dtype=float)
+        return [Record(int(h["batch"].values[k]), int(h["cell"].values[k]), tuple(float(v) for v in h["z"].values[k]),
+                       tuple(float(v) for v in h["theta"].values[k]), float(h["error"].values[k]),
+                       float(h["seconds"].values[k]), str(h["status"].values[k]), str(h["message"].values[k]),
+                       tuple(float(v) for v in parts[k]) if str(h["status"].values[k]) == "ok" else ())
+                for k in range(self.n_evaluations)]
 
     def credible_region(self, *, level: float = 0.9) -> xr.DataArray:
         """Boolean DataArray: the ``level`` highest-posterior-density cells of P."""
@@ -137,11 +158,19 @@ class IdentificationResult:
             return tail + " (no posterior)"
         warn = self.belief.attrs.get("budget_warning")
         local = self.belief.attrs.get("local_fit") or {}
-        if "error" in local:
+        stage = self.config.get("local_stage")
+        if stage:
+            tail += (f"\nlocal stage: Gauss-Newton fits from the {len(local.get('starts', []))} best evaluations "
+                     f"({stage['fit_evaluations']} simulations) end at E {local['error']:.6g}; then Algorithm 1 on a "
+                     f"grid over the {stage['directions']} directions the data pin most ({stage['evaluations']} "
+                     "simulations)")
+        elif "error" in local:
             tail += (f"\nlocal fit over all parameters (the local refit verdict rule): one Gauss-Newton step from "
                      f"the best evaluation gives E {local['error']:.6g} ({local['evaluations']} simulations)")
         noise = noise_text(self.belief.attrs)
         tail += f"\n{noise}" if noise else ""
+        pin = self.identifiability
+        tail += ("\n" + "\n".join(pin.lines())) if pin is not None else ""
         trust = self.belief.attrs.get("trust")          # why P cannot be trusted (belief.verdicts.trust_note)
         tail += f"\nwarning: {trust}" if trust else ""
         return self.belief.summary(truth=truth) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")

@@ -60,6 +60,7 @@ import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -68,7 +69,7 @@ import xarray as xr
 from belief.assess import assess
 from belief.driver import Budget, DriverResult, run
 from belief.errors import BeliefError, BudgetError, BudgetWarning, GridError, ObjectiveError
-from belief.grid import CandidateSet
+from belief.grid import CandidateSet, candidates_from_config
 from belief.journal import Journal, Record
 from belief.posterior import PosteriorConfig, posterior_from_surrogate
 from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, fit_surrogate
@@ -298,6 +299,30 @@ def search(
                    vcfg=verdict_config, extra={"budget": budget, "time_budget": time_budget})
 
 
+def with_belief(objective: Objective, result: IdentificationResult, *,
+                posterior: PosteriorConfig | Literal["likelihood", "minimizer"] = "likelihood",
+                surrogate: SurrogateConfig | None = None, verdict_config: VerdictConfig | None = None,
+                seed: int) -> IdentificationResult:
+    """``result`` of a search run with ``posterior=None``, assessed into its belief afterwards (the
+    same as having searched with ``posterior``): the decoder and grid are rebuilt from its config."""
+    from embeddings import decoder_from_config
+
+    pcfg, scfg = _posterior_config(posterior), surrogate or SurrogateConfig()
+    assert pcfg is not None
+    decoder = decoder_from_config(result.config["decoder"], objective.space)
+    grid = candidates_from_config(result.config["grid"])
+    records = result.records()
+    model = fit_surrogate(records, grid, scfg)
+    if model is None:
+        raise ObjectiveError("fewer than 2 successful evaluations; the posterior needs at least 2.")
+    belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=int(seed),
+                    verdict_config=verdict_config)
+    config = {**result.config, "posterior": pcfg.mode, "noise_var": belief.attrs.get("noise_var"),
+              "noise_rule": belief.attrs.get("noise_rule")}
+    return IdentificationResult(belief=belief, history=result.history, best_theta=result.best_theta,
+                                best_error=result.best_error, config=config)
+
+
 def _label(proposer: Proposer, decoder: Decoder) -> str:
     """The progress bar's name of a search: what it searches and how, e.g. ``identify[bo, full space]``
     or ``identify[random, 5-D DynamicsAutoencoder]`` (the proposer config's ``kind``, else its class)."""
@@ -330,6 +355,10 @@ def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: Dri
             raise ObjectiveError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
         belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=seed,
                         verdict_config=vcfg)
+        fit = belief.attrs.get("local_fit") or {}
+        if fit.get("converged_fit") and float(fit["error"]) < float(best.error):     # the local fit's end point
+            best_theta = best_theta.copy(data=np.asarray(fit["theta"], dtype=float))
+            best = replace(best, error=float(fit["error"]))
     segments = tuple(objective.segments)
     hist = history_dataset(records, latent_names=tuple(f"z{i}" for i in range(grid.dim)), space=space,
                            segments=segments)

@@ -6,15 +6,18 @@ For the bare T6 (its DART motors) and for the model the mismatch stage keeps on 
 a 3-s flop (FlopController, heading 0) at nominal θ, noise-free, this script prints
 
 1. the symmetry (physics.scaling): the node change [mm, RMS and max] when every mass and force is
-   multiplied by ``--lam``, (a) with the model's fixed constants of mass dimension (the rods' spin
-   damping, the motor driver's speed gain K_v) scaled too, which must be 0, and (b) with them held,
-   which is all the data can see of the scale; next to each shared parameter alone +2 %;
+   multiplied by ``--lam``, (a) with the model's default options, whose constants of mass dimension
+   (the rods' spin damping, the motor driver's speed gain K_v) follow the robot's mass: the symmetry
+   is exact, this must be 0; (b) with those constants held at their absolute values at θ
+   (``scale_options(options, 1 / λ)``), what such constants would tell the data of the scale; next
+   to each shared parameter alone +2 %;
 2. the local sensitivities: J = ∂nodes/∂log θ_j (central differences, ±1 %) over the 12 shared
    parameters, its singular values s_i as the RMS node change [mm] of a 2 % step along each
    singular direction (0.02 s_i / √N, N the number of node coordinates), and the loadings of the
    weakest directions. A direction whose 2 % step moves the nodes less than the marker noise
    (0.2 mm) or far less than the engine mismatch (tens of mm, benchmarks/mismatch.py) cannot be
-   pinned to 2 % by such data; any parameter loading on it can land anywhere along it.
+   pinned to 2 % by such data; any parameter loading on it can land anywhere along it. The mass
+   scale is one of these directions, with a singular value of 0 to rounding.
 
     .venv/bin/python benchmarks/identifiability.py
 """
@@ -51,12 +54,13 @@ def _mm(a: np.ndarray, b: np.ndarray) -> str:
 
 
 def symmetry(effects: tuple[Effect, ...], theta: np.ndarray, base: np.ndarray, lam: float) -> None:
-    """Part 1: the node change of the scaled θ, with and without the model's constants scaled."""
+    """Part 1: the node change of the scaled θ, with the model's constants following the mass (its
+    default: exact) and with them held at their absolute values at θ."""
     space = model_space(effects)
     scaled = scale_masses(space, theta, lam)
-    same = _flop(effects, scaled, scale_options(ModelOptions(), lam))
-    print(f"  every mass and force x {lam:g}, constants scaled: {_mm(same, base)}")
-    print(f"  every mass and force x {lam:g}, constants held:   {_mm(_flop(effects, scaled), base)}")
+    held = _flop(effects, scaled, scale_options(ModelOptions(), 1.0 / lam))
+    print(f"  every mass and force x {lam:g}, exact symmetry: {_mm(_flop(effects, scaled), base)}")
+    print(f"  every mass and force x {lam:g}, constants held: {_mm(held, base)}")
 
 
 def sensitivities(effects: tuple[Effect, ...], theta: np.ndarray, base: np.ndarray, step: float = 0.01

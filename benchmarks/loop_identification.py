@@ -19,10 +19,11 @@ fits the bare T6 than its best evaluation (the model error the posterior's discr
 cover, belief.noise).
 
 **Weighed**: a trajectory cannot tell the absolute masses and forces (physics.scaling: every mass
-and force times λ gives the same motion, but for the rods' spin damping and the motor driver's
-speed gain). The same counts after moving the best θ and every cell of P along that symmetry to
-the truth's robot mass M(θ*), as a researcher who weighed the robot would (intervals of the moved
-cells under the same P, the best cell's local width moved with it; no verdicts).
+and force times λ gives the same motion; exactly since the model's spin damping and motor speed
+gain follow the robot's mass, which the runs in benchmarks/results predate). The same counts
+after moving the best θ and every cell of P along that symmetry to the truth's robot mass M(θ*),
+as a researcher who weighed the robot would (intervals of the moved cells under the same P, the
+best cell's local width moved with it; no verdicts).
 
     .venv/bin/python benchmarks/loop_identification.py --seeds 2
     .venv/bin/python benchmarks/loop_identification.py --summarize .cache/loop/rows.jsonl

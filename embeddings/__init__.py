@@ -3,10 +3,11 @@
 ``Identity`` (no reduction, the unit cube of the space), ``REMBO`` (random linear embedding,
 Wang et al. 2016), and the trained decoders (fit/save/load, weights in their configuration):
 ``VAE`` (trained on θ from the box) and ``DynamicsAutoencoder`` (trained through a learned
-``DynamicsNetwork`` on simulated ``Transitions``, Zhu et al. 2018), and ``ActiveSubspace`` (a
-linear embedding along the directions the learned dynamics are most sensitive to). ``decoder_from_config``
-rebuilds a decoder from its saved ``config()`` and ``load_decoder`` from a file written by
-``decoder.save`` (the registry of kinds, :mod:`embeddings.registry`). embeddings depends on
+``DynamicsNetwork`` on simulated ``Transitions``, Zhu et al. 2018), ``ActiveSubspace`` (a
+linear embedding along the directions the learned dynamics are most sensitive to), and
+``LocalSubspace`` (a box of a few posterior sds around a fit, along the directions the data
+pin). ``decoder_from_config`` rebuilds a decoder from its saved ``config()`` and ``load_decoder``
+from a file written by ``decoder.save`` (the registry of kinds, :mod:`embeddings.registry`). embeddings depends on
 physics only (parameter spaces, simulation of training data), never on belief.
 
 The torch-based classes are imported on first use, so ``import embeddings`` stays light.
@@ -22,7 +23,7 @@ from embeddings.identity import Identity
 from embeddings.registry import decoder_from_config, load_decoder, register_decoder, registered_kinds
 from embeddings.rembo import REMBO
 
-_LAZY = {"VAE": "embeddings.vae", "ActiveSubspace": "embeddings.active",
+_LAZY = {"VAE": "embeddings.vae", "ActiveSubspace": "embeddings.active", "LocalSubspace": "embeddings.local",
          "DynamicsAutoencoder": "embeddings.autoencoder", "DynamicsNetwork": "embeddings.dynamics",
          "Transitions": "embeddings.transitions",
          "push_transitions": "embeddings.transitions", "TrainingConfig": "embeddings.networks",

@@ -29,7 +29,8 @@ _D = TypeVar("_D", bound=type[Decoder])
 
 _REGISTRY: dict[str, type[Decoder]] = {}
 #: built-in kinds whose modules import torch: loaded when a configuration names them
-_BUILT_IN = {"vae": "embeddings.vae", "ae-dyn": "embeddings.autoencoder", "active": "embeddings.active"}
+_BUILT_IN = {"vae": "embeddings.vae", "ae-dyn": "embeddings.autoencoder", "active": "embeddings.active",
+             "local": "embeddings.local"}
 
 
 def register_decoder(kind: str) -> Callable[[_D], _D]:

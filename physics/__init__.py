@@ -1,6 +1,6 @@
 """physics: what the world does — parameter spaces, the DART SUPERball model, its motors and
 controllers, trajectories (xarray), the trajectory error E(θ), the objective contract, the dask
-pool and the 1-D push toy.
+pool, the 1-D push toy, and what the user measured or fixed (physics.measurements, physics.fixed).
 
 Knows nothing of GPs or embeddings (the arrows point planners -> belief -> embeddings -> physics).
 
@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from physics.errors import (
         ContractError,
         ControllerError,
+        MeasurementError,
         NoResidualsError,
         ParameterError,
         PhysicsError,
@@ -26,6 +27,7 @@ if TYPE_CHECKING:
         TensegridError,
         TrajectoryFormatError,
     )
+    from physics.fixed import FixedParameters
     from physics.geometry import (
         CABLE_NAMES,
         CABLE_NODES,
@@ -34,12 +36,21 @@ if TYPE_CHECKING:
         node_positions,
         rod_mass_properties,
     )
+    from physics.measurements import (
+        Measurement,
+        MeasurementPrior,
+        check_measurements,
+        measured_values,
+        parse_fixed,
+        parse_measurement,
+    )
     from physics.objective import STATUSES, BatchResult, FunctionObjective, Objective, as_objective
     from physics.parameters import T6_NOMINAL, Parameter, ParameterSpace
     from physics.pool import DaskPool
     from physics.predictor import ObservedStates, predict, reconstruct_actuators
     from physics.push import PushObjective, generate_push_data, push_space, simulate_push
     from physics.simulation import settled_model, simulate
+    from physics.state_estimation import StateEstimator
     from physics.tensegrity import ModelOptions, RobotState, T6Model, rod_poses_from_nodes
     from physics.trajectory import (
         describe_trajectory,
@@ -52,7 +63,7 @@ if TYPE_CHECKING:
 
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "physics.errors": ("TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError",
-                       "ControllerError", "PoolError", "ContractError", "NoResidualsError"),
+                       "ControllerError", "PoolError", "ContractError", "NoResidualsError", "MeasurementError"),
     "physics.parameters": ("Parameter", "ParameterSpace", "T6_NOMINAL"),
     "physics.geometry": ("CABLE_NAMES", "CABLE_NODES", "ROD_NODES", "closed_faces", "node_positions",
                          "rod_mass_properties"),
@@ -62,11 +73,15 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "physics.trajectory": ("make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory",
                            "describe_trajectory"),
     "physics.simulation": ("simulate", "settled_model"),
+    "physics.state_estimation": ("StateEstimator",),
     "physics.predictor": ("ObservedStates", "predict", "reconstruct_actuators"),
     "physics.objective": ("STATUSES", "BatchResult", "Objective", "FunctionObjective", "as_objective"),
     "physics.pool": ("DaskPool",),
     "physics.trajectory_objective": ("TrajectoryObjective",),
     "physics.push": ("PushObjective", "generate_push_data", "push_space", "simulate_push"),
+    "physics.measurements": ("Measurement", "MeasurementPrior", "parse_measurement", "parse_fixed",
+                             "check_measurements", "measured_values"),
+    "physics.fixed": ("FixedParameters",),
 }
 _ORIGIN = {name: module for module, names in _EXPORTS.items() for name in names}
 
@@ -74,11 +89,11 @@ _ORIGIN = {name: module for module, names in _EXPORTS.items() for name in names}
 # tests/physics/test_imports.py checks that the two lists agree.
 __all__ = [
     "TensegridError", "ParameterError", "PhysicsError", "TrajectoryFormatError", "ControllerError", "PoolError",
-    "ContractError", "NoResidualsError",
+    "ContractError", "NoResidualsError", "MeasurementError",
     "Parameter", "ParameterSpace", "T6_NOMINAL",
     "CABLE_NAMES", "CABLE_NODES", "ROD_NODES", "closed_faces", "node_positions", "rod_mass_properties",
     "MotorGains",
-    "ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes",
+    "ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes", "StateEstimator",
     "Controller", "FlopController", "FlopPlan", "HoldController", "ReplayController",
     "make_trajectory", "validate_trajectory", "save_trajectory", "load_trajectory", "describe_trajectory",
     "simulate", "settled_model",
@@ -87,6 +102,8 @@ __all__ = [
     "DaskPool",
     "TrajectoryObjective",
     "PushObjective", "generate_push_data", "push_space", "simulate_push",
+    "Measurement", "MeasurementPrior", "parse_measurement", "parse_fixed", "check_measurements", "measured_values",
+    "FixedParameters",
 ]
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 __all__ = [
     "TensegridError",
     "ParameterError",
+    "MeasurementError",
     "TrajectoryFormatError",
     "PhysicsError",
     "ControllerError",
@@ -28,6 +29,12 @@ class TensegridError(Exception):
 
 class ParameterError(TensegridError, ValueError):
     """A parameter vector or parameter space is invalid (NaN, wrong length, out of bounds...)."""
+
+
+class MeasurementError(ParameterError):
+    """What the user knows about θ cannot be used as given (physics.measurements): a measurement or a
+    fixed value that is malformed, names an unknown quantity, is non-physical, is given twice, or lies
+    outside what the prior box allows (a unit slip when far outside)."""
 
 
 class TrajectoryFormatError(TensegridError, ValueError):

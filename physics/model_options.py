@@ -1,7 +1,7 @@
 """Options of the T6 model that are not identified parameters, and its full simulator state."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -25,6 +25,12 @@ class ModelOptions:
     drop_height: gap between the lowest cap and the ground at build [m];
     face: which of the 8 closed faces faces the ground at build (0..7); max_speed: a node faster
     than this [m/s] means the simulation diverged; motor: gains of the motor drivers.
+
+    The two constants with a mass in their unit, ``spin_damping`` and ``motor.kv`` [N m s], are the
+    values for the nominal robot: a model applies them times its mass scale
+    s(θ) = M_rods(θ) / M_rods(θ_nominal) (:func:`physics.scaling.rod_mass_scale`;
+    :meth:`spin_damping_at`, :meth:`motor_at`), so that every mass and force times λ leaves the
+    motion unchanged (physics.scaling) and no fixed constant tells the data the robot's absolute mass.
     """
 
     dt: float = 1e-3
@@ -50,6 +56,21 @@ class ModelOptions:
             raise ParameterError(f"ModelOptions.face must be an integer in 0..{len(_FACES) - 1}, got {self.face!r}.")
         if not isinstance(self.motor, MotorGains):
             raise ParameterError(f"ModelOptions.motor must be a MotorGains, got {type(self.motor).__name__}.")
+
+    def spin_damping_at(self, mass_scale: float) -> float:
+        """The axial spin damping applied to a robot of mass scale s [N m s]: c_spin s."""
+        return self.spin_damping * _checked_scale(mass_scale)
+
+    def motor_at(self, mass_scale: float) -> MotorGains:
+        """The motor-driver gains applied to a robot of mass scale s: K_v s [N m s]; K_p [1/s] and the
+        rest-length floor [m] have no mass in their unit and stay."""
+        return replace(self.motor, kv=self.motor.kv * _checked_scale(mass_scale))
+
+
+def _checked_scale(mass_scale: float) -> float:
+    if not (np.isfinite(mass_scale) and mass_scale > 0):
+        raise ParameterError(f"the mass scale s = M(θ) / M(θ_nominal) must be finite and > 0, got {mass_scale!r}.")
+    return float(mass_scale)
 
 
 @dataclass(frozen=True)

@@ -221,6 +221,13 @@ class Objective(Protocol):
         """Known observation noise variance σ² per residual (units of E), or None."""
         ...
 
+    @property
+    def noise_floor(self) -> float | None:
+        """The variance per residual (units of E / K) that measurement noise alone leaves at the true θ,
+        measured from the data (or known), or None when the objective cannot tell; belief.scale reads
+        an adequate model from it."""
+        ...
+
     def __call__(self, theta: np.ndarray) -> float:
         """E(θ) for θ (D,); raises PhysicsError if the simulation diverges."""
         ...
@@ -252,8 +259,8 @@ class Objective(Protocol):
 ObjectiveFunction = Callable[[np.ndarray], float]
 
 #: The members of :class:`Objective` that a plain function does not have.
-_CONTRACT_MEMBERS = ("segments", "n_observations", "noise_var", "evaluate_parts", "evaluate_batch", "residuals",
-                     "residuals_batch", "fingerprint")
+_CONTRACT_MEMBERS = ("segments", "n_observations", "noise_var", "noise_floor", "evaluate_parts", "evaluate_batch",
+                     "residuals", "residuals_batch", "fingerprint")
 
 
 def _function_name(fn: Callable[..., object]) -> str:
@@ -297,6 +304,11 @@ class FunctionObjective:
 
     @property
     def noise_var(self) -> float | None:
+        return self._noise_var
+
+    @property
+    def noise_floor(self) -> float | None:
+        """A plain function's residuals are unknown: its declared σ², else None."""
         return self._noise_var
 
     def __call__(self, theta: np.ndarray) -> float:

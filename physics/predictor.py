@@ -2,11 +2,12 @@
 
 The observed state at sample i is rebuilt in the simulator:
 
-- rod poses from the node positions x_i (12 x 3); rod velocities from the recorded node
-  velocities when the data has them (``velocities``), else estimated from the past only,
-  v_i ≈ (3 x_i - 4 x_{i-1} + x_{i-2}) / (2 Δ) (second-order backward difference; first order
-  when x_{i-2} is missing), so the prediction never sees x_{i+1}. The estimate costs accuracy:
-  its error, O(Δ² d³x/dt³), sets a floor under E(θ_true) (docs/physics.md gives the figure);
+- rod poses from the node positions and rod velocities from the recorded node velocities when
+  the data has them (``velocities``, positions then as recorded), else both estimated by a
+  :class:`physics.state_estimation.StateEstimator` from samples the prediction is not compared
+  with (default: a local quadratic through 4 samples up to x_i and 4 after x_{i+1}), so the noise
+  of x_{i+1} never enters the state it is compared with and the state's own noise is small
+  (an errors-in-variables bias otherwise moves the minimum of E; that module says why);
 - actuator state (rest lengths L0 and spool speeds ω): from the data's ``rest_length`` readings
   (L0 = reading + encoder offset(θ), ω from the backward difference of L0 over r), or, when the
   data has none, reconstructed by running the model's actuator along the observed cable lengths
@@ -32,6 +33,7 @@ import xarray as xr
 
 from physics.errors import StepSizeError, TrajectoryFormatError
 from physics.geometry import CABLE_NODES
+from physics.state_estimation import DEFAULT_STATES, StateEstimator
 from physics.tensegrity import ModelOptions, T6Model
 
 __all__ = ["ObservedStates", "LENGTH_REFERENCES", "reconstruct_actuators", "actuator_states", "predict",
@@ -90,11 +92,14 @@ def dt_option(dt: float | None, datasets: Sequence[xr.Dataset], *, name: str = "
 
 
 class ObservedStates:
-    """Arrays derived from one trajectory: times (T,), nodes (T x 12 x 3), node velocities
-    (T x 12 x 3, NaN where not estimable), controls (T x 24), readings (T x 24 or None), Δ [s],
-    ``reference`` (one of LENGTH_REFERENCES) and ``valid`` (T,) = the state at i can be rebuilt."""
+    """Arrays derived from one trajectory: times (T,), nodes (T x 12 x 3, as recorded: what
+    predictions are compared with), the states predictions start from, ``state_nodes`` and node
+    ``velocities`` (T x 12 x 3 each, NaN where not estimable: recorded, else by ``states`` leaving
+    out the ``ahead`` samples each prediction is compared with, None for a free rollout), controls
+    (T x 24), readings (T x 24 or None), Δ [s], ``reference`` (one of LENGTH_REFERENCES) and
+    ``valid`` (T,) = the state at i can be rebuilt."""
 
-    def __init__(self, ds: xr.Dataset) -> None:
+    def __init__(self, ds: xr.Dataset, *, states: StateEstimator = DEFAULT_STATES, ahead: int | None = 1) -> None:
         self.reference = str(ds.attrs.get("length_reference", "encoder"))
         if self.reference not in LENGTH_REFERENCES:
             raise TrajectoryFormatError(f"attribute length_reference must be one of {LENGTH_REFERENCES}, got "
@@ -107,17 +112,15 @@ class ObservedStates:
                          if "rest_length" in ds else None)
         x = self.nodes
         if "velocities" in ds:
+            self.state_nodes = x
             vel = np.asarray(ds["velocities"].transpose("time", "node", "axis").values, float)
         else:
-            vel = np.full_like(x, np.nan)
-            vel[2:] = (3 * x[2:] - 4 * x[1:-1] + x[:-2]) / (2 * self.interval)
-            first = (x[1:] - x[:-1]) / self.interval
-            fill = ~np.isfinite(vel[1:]).all(axis=(1, 2))
-            vel[1:][fill] = first[fill]
+            self.state_nodes, vel = states.estimate(x, self.interval, ahead=ahead)
         self.velocities = vel
         finite_x = np.isfinite(x).all(axis=(1, 2))
+        finite_state = finite_x & np.isfinite(self.state_nodes).all(axis=(1, 2))
         finite_u = np.isfinite(self.controls).all(axis=1)
-        self.valid = finite_x & np.isfinite(vel).all(axis=(1, 2)) & finite_u
+        self.valid = finite_state & np.isfinite(vel).all(axis=(1, 2)) & finite_u
         if self.readings is not None:
             self.valid &= np.isfinite(self.readings).all(axis=1)
         self.finite = finite_x
@@ -195,7 +198,7 @@ def predict(model: T6Model, obs: ObservedStates, start: int, steps: int,
     are replayed (held per interval). Raises PhysicsError if the simulation diverges.
     """
     substeps = int(round(obs.interval / model.options.dt))
-    model.set_nodes(model.unobserve(obs.nodes[start]), obs.velocities[start])
+    model.set_nodes(model.unobserve(obs.state_nodes[start]), obs.velocities[start])
     model.rest_length = rest[start].copy()
     model.motor_speed = speed[start].copy()
     model.world.setTime(float(obs.times[start]))

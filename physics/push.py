@@ -164,6 +164,11 @@ class PushObjective:
         """Observation noise variance [m^2], or None when unknown."""
         return None if self.noise_std is None else float(self.noise_std) ** 2
 
+    @property
+    def noise_floor(self) -> float | None:
+        """What the noise alone leaves per residual: its declared variance (the impulses are exact)."""
+        return self.noise_var
+
     def fingerprint(self) -> dict[str, object]:
         """JSON-able identity of the data and options (a journal refuses another data set)."""
         h = hashlib.sha256(np.ascontiguousarray(self.impulses).tobytes())

@@ -11,6 +11,11 @@ Built from any θ of :meth:`ParameterSpace.t6` (15 parameters, SI). What each pa
 - ``maxTens, targetVelocity, motor_radius, motor_friction, motor_inertia``: the motor model
   (:mod:`physics.actuators`).
 
+The options' two constants with a mass in their unit (the rods' spin damping, the motor driver's
+speed gain K_v) are applied times the mass scale s(θ) = M_rods(θ) / M_rods(θ_nominal)
+(``mass_scale``, :func:`physics.scaling.rod_mass_scale`), so that every mass and force times λ gives
+the same motion (the symmetry of :mod:`physics.scaling` is exact).
+
 The rods are six FreeJoint bodies of one Skeleton (origin = centre of mass, local z = rod axis);
 one Skeleton keeps the Python side to one get/set call per step (six Skeletons made contacts
 cheaper inside DART but cost more in Python calls, and were slower overall). A sphere of radius ``radius`` at
@@ -53,6 +58,7 @@ from physics.geometry import (
 )
 from physics.model_options import ModelOptions, RobotState
 from physics.parameters import ParameterSpace
+from physics.scaling import rod_mass_scale
 
 __all__ = ["ModelOptions", "RobotState", "T6Model", "rod_poses_from_nodes"]
 
@@ -101,7 +107,8 @@ class T6Model:
             raise ParameterError(f"T6Model takes one θ of shape ({self.space.dim},), got {self.theta.shape}.")
         self.params, self.effect_values = split_theta(self.theta, self.space, self.effects, _SPACE.dim)
         p = self.params
-        self.setup = ModelSetup.base(p, self.options.gravity, self.options.motor, self.options.dt)
+        self.mass_scale = rod_mass_scale(p)       # s(θ): the options' constants of mass dimension scale with it
+        self.setup = ModelSetup.base(p, self.options.gravity, self.options.motor_at(self.mass_scale), self.options.dt)
         for effect, values in zip(self.effects, self.effect_values, strict=True):
             effect.apply(self.setup, values, p)
         self.mass_properties = rod_mass_properties(
@@ -112,7 +119,8 @@ class T6Model:
         self.build_rest_length = build_rest_lengths(p)
         self.encoder_zero = build_rest_lengths(dict(zip(self.space.names, self.space.nominal.tolist(), strict=True)))
         self.encoder_offset = self.build_rest_length - self.encoder_zero
-        c_spin = self.options.spin_damping if self.setup.spin_damping is None else self.setup.spin_damping
+        c_spin = (self.options.spin_damping_at(self.mass_scale) if self.setup.spin_damping is None
+                  else self.setup.spin_damping)
         self._spin_coefficient = c_spin / (1.0 + c_spin * self.options.dt / self.mass_properties.axial)
         self._cable_args = self.setup.cable.args()
         self._pending: deque = deque()

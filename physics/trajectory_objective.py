@@ -45,6 +45,7 @@ from physics.objective import BatchResult, OnResult, Row, check_windows, evaluat
 from physics.parameters import ParameterSpace
 from physics.pool import DaskPool, map_serial
 from physics.predictor import ObservedStates, actuator_states, predict, step_options
+from physics.state_estimation import DEFAULT_STATES, StateEstimator, position_noise
 from physics.tensegrity import ModelOptions, T6Model
 from physics.trajectory import regular_clock, validate_trajectory
 
@@ -73,13 +74,16 @@ class TrajectoryObjective:
     windows: segments per trajectory (module docstring); effects: physics.effects parts added to
     the T6 (θ then lives in ``model_space(effects)``: 15 T6 parameters, then the effects');
     address: a dask scheduler address for batches (default: a local cluster of ``n_workers``
-    single-threaded processes; ``n_workers=0`` evaluates batches serially in this process).
+    single-threaded processes; ``n_workers=0`` evaluates batches serially in this process);
+    states: how the states predictions start from are estimated when the data carry no velocities
+    (physics.state_estimation; the default leaves out the samples each prediction is compared with,
+    so E's minimum does not move with the measurement noise).
     """
 
     def __init__(self, trajectories: xr.Dataset | Sequence[xr.Dataset], *, space: ParameterSpace | None = None,
                  horizon: int | str = 1, actuators: str = "reconstructed", loss: str = "squared",
                  options: ModelOptions | None = None, windows: int = 3, effects: Sequence[Effect] = (),
-                 address: str | None = None, n_workers: int = 2) -> None:
+                 address: str | None = None, n_workers: int = 2, states: StateEstimator = DEFAULT_STATES) -> None:
         if isinstance(trajectories, xr.Dataset):
             trajectories = [trajectories]
         trajectories = list(trajectories)
@@ -100,7 +104,11 @@ class TrajectoryObjective:
         self.horizon, self.actuators, self.loss = horizon, actuators, loss
         self.windows = check_windows(windows, "segments per trajectory")
         self.options = options
-        self._observed = [ObservedStates(ds) for ds in self.trajectories]
+        if not isinstance(states, StateEstimator):
+            raise ParameterError(f"states must be a physics.StateEstimator, got {type(states).__name__}.")
+        self.states = states
+        ahead = None if horizon == "rollout" else int(horizon)
+        self._observed = [ObservedStates(ds, states=states, ahead=ahead) for ds in self.trajectories]
         self.model_options = tuple(step_options(obs.interval, options, what=f"trajectory {k}")
                                    for k, obs in enumerate(self._observed))
         self._pool = DaskPool(address, n_workers=n_workers, warm_up=_warm_up)
@@ -130,16 +138,35 @@ class TrajectoryObjective:
         """Observation noise variance per coordinate: unknown for data (None); belief estimates it."""
         return None
 
+    @property
+    def noise_floor(self) -> float | None:
+        """s₀² [m²]: the residual variance per coordinate that the position noise alone leaves, the
+        noise measured from each trajectory's recorded nodes and carried through its state estimate
+        (physics.state_estimation), averaged over the compared samples; recorded velocities carry
+        none (σ² for the compared sample and σ² for the state's position). None for a free rollout
+        or the "norm" loss, where E is no sum of squared residuals of one step's noise."""
+        if self.horizon == "rollout" or self.loss != "squared":
+            return None
+        ahead = int(self.horizon)
+        floors, weights = [], []
+        for ds, obs in zip(self.trajectories, self._observed, strict=True):
+            if "velocities" in ds:
+                floors.append(2.0 * position_noise(obs.nodes) ** 2)
+            else:
+                floors.append(self.states.noise_floor(obs.nodes, obs.interval, ahead=ahead))
+            weights.append(sum(steps for _, steps in self._windows(obs)))
+        return float(np.average(floors, weights=weights))
+
     def fingerprint(self) -> dict:
         """What identifies this objective in a journal: a hash of the data and the settings, and the segments."""
         digest = hashlib.sha256()
         for obs in self._observed:
-            for arr in (obs.times, obs.nodes, obs.controls, obs.velocities):
+            for arr in (obs.times, obs.nodes, obs.controls, obs.state_nodes, obs.velocities):
                 digest.update(np.ascontiguousarray(arr).tobytes())
         return {"kind": "T6 TrajectoryObjective", "data_sha256": digest.hexdigest(), "horizon": str(self.horizon),
                 "actuators": self.actuators, "loss": self.loss, "options": self._options_record(),
                 "parameters": list(self.space.names), "windows": self.windows, "segments": list(self.segments),
-                "effects": [e.config() for e in self.effects]}
+                "effects": [e.config() for e in self.effects], "states": self.states.config()}
 
     # ------------------------------------------------------------------ windows and segments
     def _windows(self, obs: ObservedStates) -> list[tuple[int, int]]:

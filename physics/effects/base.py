@@ -16,8 +16,9 @@ model before its world is built. Through the setup an effect may
   that run after all of those, so that ``out`` then holds the rods' whole applied wrench (cables
   and every effect's forces; gravity and contact excluded): laws that depend on the load a rod
   puts on the ground (rolling resistance);
-- change the rods' spin: ``spin_damping`` (the axial damper [N m s]; None keeps the model's
-  option) and ``orient``, which turns rods placed from nodes about their own axes (q (36,) -> q);
+- change the rods' spin: ``spin_damping`` (the axial damper [N m s], applied as given; None keeps
+  the model's option times its mass scale, physics.scaling.rod_mass_scale) and ``orient``, which
+  turns rods placed from nodes about their own axes (q (36,) -> q);
 - replace a component: the cable law's coefficients (``cable``), the actuator (``actuator``),
   the delay between a command and the actuator seeing it (``command_delay``), an offset (24,)
   [m] added to every command (``command_offset``);
@@ -60,7 +61,8 @@ class ModelSetup:
     (3,) the unit normal of the ground plane through the world origin (z up, the data contract's
     world frame: a sloped floor tilts the plane, gravity stays along −z); tension (24,) [N]: the
     node cables' tensions, which the model writes in place each step before the force and wrench
-    terms run (read them there, never replace the array)."""
+    terms run (read them there, never replace the array); gains: the motor driver's gains as the
+    model applies them (K_v times the mass scale, ModelOptions.motor_at)."""
 
     gravity: np.ndarray
     cap_radius: float

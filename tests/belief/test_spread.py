@@ -114,6 +114,10 @@ class Linear:
     def noise_var(self) -> float:
         return self.sigma ** 2
 
+    @property
+    def noise_floor(self) -> float:
+        return self.sigma ** 2
+
     def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
         return [(self.y - self.A @ np.asarray(theta, float))[:, None]]
 

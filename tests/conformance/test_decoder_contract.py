@@ -65,6 +65,13 @@ def _active_basis() -> Case:
     return Case(ActiveSubspace(ParameterSpace.t6(), basis))
 
 
+def _local() -> Case:
+    from embeddings import LocalSubspace
+
+    basis = 0.05 * np.linalg.qr(np.random.default_rng(1).standard_normal((15, 3)))[0]
+    return Case(LocalSubspace(ParameterSpace.t6(), np.full(15, 0.4), basis, span=3.0))
+
+
 IMPLEMENTATIONS = [
     pytest.param(lambda: Case(Identity(push_space()), exact=True), id="Identity-push"),
     pytest.param(lambda: Case(Identity(ParameterSpace.t6()), exact=True), id="Identity-t6"),
@@ -73,9 +80,10 @@ IMPLEMENTATIONS = [
     pytest.param(_autoencoder, id="DynamicsAutoencoder"),
     pytest.param(_active_fitted, id="ActiveSubspace-fitted"),
     pytest.param(_active_basis, id="ActiveSubspace-basis"),
+    pytest.param(_local, id="LocalSubspace"),
 ]
 #: the config kinds IMPLEMENTATIONS covers; every registered kind must be among them
-COVERED = {"identity", "rembo", "vae", "ae-dyn", "active"}
+COVERED = {"identity", "rembo", "vae", "ae-dyn", "active", "local"}
 
 
 @pytest.fixture(scope="module", params=IMPLEMENTATIONS)

@@ -53,6 +53,26 @@ def _trajectory(loss: str, horizon: "int | str") -> Case:
     return Case(obj, thetas, space.replace(stiffnessActive=1e7), squared=loss == "squared")
 
 
+def _fixed_push() -> Case:
+    """The push toy with mu held at 0.4 (physics.fixed): θ = (m,)."""
+    from physics.fixed import FixedParameters
+
+    J, S = generate_push_data([1.0, 0.4], n=6, noise_std=0.05, seed=0)
+    obj = FixedParameters(PushObjective(J, S, noise_std=0.05, fail_above=1.4, windows=3), {"mu": 0.4})
+    return Case(obj, np.array([[1.0], [0.7], [1.3]]), np.array([1.45]), squared=True)
+
+
+def _fixed_trajectory() -> Case:
+    """The T6 error with rod_length and motor_friction held (physics.fixed): θ has the other 13."""
+    from physics.fixed import FixedParameters
+    from physics.trajectory_objective import TrajectoryObjective
+
+    obj = FixedParameters(TrajectoryObjective(_flop(), windows=2, n_workers=0),
+                          {"rod_length": 1.7, "motor_friction": 8.6e-5})
+    thetas = np.vstack([obj.space.nominal, obj.space.replace(damping=190.0), obj.space.sample(1, seed=3)])
+    return Case(obj, thetas, obj.space.replace(stiffnessActive=1e7), squared=True)
+
+
 def _bowl(theta: np.ndarray) -> float:
     """(m - 1)² + (μ - 0.4)², and a diverged 'simulation' above m = 1.4."""
     if theta[0] > 1.4:
@@ -72,6 +92,8 @@ IMPLEMENTATIONS = [
     pytest.param(lambda: _trajectory("norm", "rollout"), id="TrajectoryObjective-rollout"),
     pytest.param(lambda: _function(1), id="FunctionObjective"),
     pytest.param(lambda: _function(3), id="FunctionObjective-threads"),
+    pytest.param(_fixed_push, id="FixedParameters-push"),
+    pytest.param(_fixed_trajectory, id="FixedParameters-T6"),
 ]
 
 

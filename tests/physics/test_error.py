@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from physics import (
-    STATUSES, ModelOptions, ParameterError, PhysicsError, TrajectoryObjective, TrajectoryFormatError,
+    STATUSES, ModelOptions, ParameterError, PhysicsError, StateEstimator, TrajectoryFormatError, TrajectoryObjective,
 )
 
 # motor_friction acts on the motion (test_model) but its one-step signal (+3e-8 at +5 %) is far
@@ -56,11 +56,15 @@ def test_missing_samples_are_skipped(space, flop_data):
     holey["controls"][200:202] = np.nan
     E = TrajectoryObjective(holey.drop_vars("velocities"))
     per = E.per_sample(space.nominal)[0]
-    assert np.isnan(per[100:105]).all()           # the holes, and predictions from states that need them
-    assert np.isfinite(per[105])                  # from x_104, velocity by first-order difference
+    assert np.isnan(per[100:104]).all()           # the holes, and the prediction from the missing state x_102
+    assert np.isfinite(per[104])                  # from x_103, its fit leaves the missing samples out
     assert np.isfinite(per[110:200]).all()
     assert np.isnan(per[201:203]).all()           # no prediction without the command
     assert np.isfinite(E(space.nominal))
+    backward = TrajectoryObjective(holey.drop_vars("velocities"), states=StateEstimator(method="backward"))
+    per = backward.per_sample(space.nominal)[0]
+    assert np.isnan(per[100:105]).all()           # x_103's backward difference needs x_102
+    assert np.isfinite(per[105])                  # from x_104, velocity by first-order difference
 
 
 def test_squared_loss_is_the_sum_of_squared_residuals(space, flop_data):

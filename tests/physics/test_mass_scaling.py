@@ -1,12 +1,13 @@
-"""The mass-scale symmetry (physics.scaling) by its law: every mass and force times λ, the model's
-fixed constants of mass dimension with them, and the robot moves exactly as before; hold those
-constants fixed and the motion changes, which is all a trajectory can tell of the scale."""
+"""The mass-scale symmetry (physics.scaling) by its law: every mass and force times λ, with the
+model's default options (its constants of mass dimension follow the robot's mass by themselves),
+and the robot moves exactly as before; hold those constants at fixed absolute values and the
+motion changes, which is what such constants would tell a trajectory of the scale."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from physics import FlopController, ModelOptions, ParameterError, ParameterSpace, simulate
+from physics import FlopController, ModelOptions, MotorGains, ParameterError, ParameterSpace, T6Model, simulate
 from physics.effects import (
     EFFECT_TYPES,
     AirDrag,
@@ -19,7 +20,15 @@ from physics.effects import (
     model_space,
 )
 from physics.geometry import rod_mass_properties
-from physics.scaling import mass_dimension, mass_exponents, robot_mass, scale_masses, scale_options, weighed
+from physics.scaling import (
+    mass_dimension,
+    mass_exponents,
+    robot_mass,
+    rod_mass_scale,
+    scale_masses,
+    scale_options,
+    weighed,
+)
 
 LAM = 1.3
 SIZES = {"drag": 5.0, "viscous_drag": 4.0, "point_mass": 1.0,
@@ -59,13 +68,35 @@ def test_scaling_every_mass_and_force_leaves_the_motion_unchanged(effects: tuple
             theta[space.names.index(name)] = value
     options = ModelOptions()
     before = _nodes(effects, theta, options)
-    after = _nodes(effects, scale_masses(space, theta, LAM), scale_options(options, LAM))
-    assert np.abs(after - before).max() < 1e-9
+    after = _nodes(effects, scale_masses(space, theta, LAM), options)       # the same options: the same motion
+    assert np.abs(after - before).max() < 1e-9                    # measured: 1e-14 m (rounding)
     heavier = theta.copy()
     heavier[space.names.index("density")] *= LAM                  # a mass alone: a different motion
     assert np.abs(_nodes(effects, heavier, options) - before).max() > 0.01
-    fixed = _nodes(effects, scale_masses(space, theta, LAM), options)   # the constants held: the scale shows
+    held = scale_options(options, 1.0 / LAM)          # spin damping and K_v held at their values at θ: the scale shows
+    fixed = _nodes(effects, scale_masses(space, theta, LAM), held)
     assert np.abs(fixed - before).max() > 1e-4
+
+
+def test_the_constants_follow_the_rod_mass() -> None:
+    space = ParameterSpace.t6()
+    theta = space.nominal.copy()
+    theta[space.names.index("radius_mp")] *= 1.05
+    params = dict(zip(space.names, theta, strict=True))
+    scaled = dict(zip(space.names, scale_masses(space, theta, LAM), strict=True))
+    assert rod_mass_scale(dict(zip(space.names, space.nominal, strict=True))) == 1.0
+    assert rod_mass_scale(scaled) == pytest.approx(LAM * rod_mass_scale(params), rel=1e-14)
+    assert rod_mass_scale(params) == pytest.approx(robot_mass(space, theta) / robot_mass(space, space.nominal))
+    model = T6Model(theta)
+    assert model.mass_scale == rod_mass_scale(params)
+    assert model.setup.gains.kv == pytest.approx(ModelOptions().motor.kv * model.mass_scale)
+    options = ModelOptions(spin_damping=1.5, motor=MotorGains(kv=0.2))
+    assert options.spin_damping_at(2.0) == 3.0 and options.motor_at(2.0) == MotorGains(kv=0.4)
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ParameterError, match="mass scale"):
+            options.motor_at(bad)
+    with pytest.raises(ParameterError, match="rod parameters"):
+        rod_mass_scale({"density": 1.0})
 
 
 def test_weighed_moves_theta_to_the_mass_and_keeps_the_rest() -> None:
