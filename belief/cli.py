@@ -126,10 +126,10 @@ def _add_error_options(g: argparse._ArgumentGroup) -> None:
     g.add_argument("--windows", type=int, default=3,
                    help="T6 error: contiguous segments per trajectory whose errors sum to E (default 3)")
     g.add_argument("--noise-var", type=float, default=None, help="sigma^2 of the likelihood posterior (units of E)")
-    g.add_argument("--noise-rule", choices=list(NOISE_RULES), default="calibrated",
-                   help="sigma^2 when not given: 'calibrated' (block sandwich at the local fit, the model-error floor "
-                        "only where the residuals exceed what the measured noise leaves; default), 'ess' (effective "
-                        "residual count, the floor always) or 'iid' (E_min / (K - d)); docs/identification.md")
+    g.add_argument("--noise-rule", choices=list(NOISE_RULES), default="ess",
+                   help="sigma^2 when not given: 'ess' (effective residual count, the model-error floor always; "
+                        "default), 'calibrated' (block sandwich at a local fit, the floor only where the residuals "
+                        "exceed what the measured noise leaves) or 'iid' (E_min / (K - d)); docs/identification.md")
     g.add_argument("--discrepancy", type=float, default=DEFAULT_DISCREPANCY,
                    help=f"relative excess error that costs one nat at least where the model falls short of the "
                         f"data, a prior on model error (default {DEFAULT_DISCREPANCY})")
@@ -370,8 +370,8 @@ def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder
     if note:
         _note(note)
     if known.measurements:
-        _note("--measured values enter the posterior of the local stage (belief.local_belief; presets ending in "
-              "'-gn' on data whose noise is measured), not the global search; recorded in result.nc and summary.txt")
+        _note("--measured values enter the posterior of the local stage (presets '*-local', belief.local_belief), "
+              "not the global search; recorded in result.nc and summary.txt")
 
 
 def run_identify(args: argparse.Namespace) -> int:

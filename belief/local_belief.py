@@ -11,11 +11,14 @@ tens of posterior widths across in rod_length. So the identification continues l
     2  the likelihood's scale σ² from r and J (belief.scale: block sandwich, adequacy against the
        noise floor the data show, the model-error floor only where the model falls short)
     3  the Fisher information F = JᵀJ/σ² in the unit box; its eigen-directions v_k (unit vectors)
-       with eigenvalue λ_k. The uniform prior over the box spreads along v_k over the chord
-       1/max_j |v_kj| through the box's centre, variance 1/(12 max_j v_kj²), so its precision there
-       is π_k = 12 max_j v_kj², and a direction is pinned by the data when λ_k > π_k. The ``dim``
-       most pinned span the grid: w_k = v_k / sqrt(λ_k + π_k), one posterior sd
-       (embeddings.LocalSubspace), ``points_per_dim`` points on [−span, span] each
+       with eigenvalue λ_k, each checked against E itself: E at the centre and ± span posterior
+       sds along every pinned direction (one batch, :func:`flatness`); where E rises less than
+       the quadratic approximation says, λ_k shrinks to the curvature E shows. The uniform prior
+       over the box spreads along v_k over the chord 1/max_j |v_kj| through the box's centre,
+       variance 1/(12 max_j v_kj²), so its precision there is π_k = 12 max_j v_kj², and a
+       direction is pinned by the data when λ_k > π_k. The ``dim`` most pinned span the grid:
+       w_k = v_k / sqrt(λ_k + π_k), one posterior sd (embeddings.LocalSubspace),
+       ``points_per_dim`` points on [−span, span] each
     4  Algorithm 1 (GP + EI, belief.search) on that grid for ``budget`` evaluations, the centre
        first, P from the GP with the σ² of step 2 (belief.posterior, likelihood mode)
     5  the other directions keep their local posterior: every cell is spread by the normal with
@@ -61,8 +64,8 @@ from embeddings.local import LocalSubspace
 from physics.measurements import MeasurementPrior
 from physics.objective import Objective
 
-__all__ = ["LocalConfig", "DEFAULT_LOCAL", "Directions", "NoLocalStage", "pinned_directions", "best_local_fit",
-           "local_stage"]
+__all__ = ["LocalConfig", "DEFAULT_LOCAL", "Directions", "NoLocalStage", "pinned_directions", "flatness",
+           "best_local_fit", "local_stage"]
 
 class NoLocalStage(BeliefError):
     """The local stage cannot run here (its message says why); the global belief stands."""
@@ -116,9 +119,11 @@ class Directions:
 
 
 def pinned_directions(jacobian: np.ndarray, noise_var: float, *, dim: int,
-                      prior_rows: np.ndarray | None = None) -> Directions:
+                      prior_rows: np.ndarray | None = None, flatness: np.ndarray | None = None) -> Directions:
     """Steps 3 and 5 of the module docstring from J (K x D, unit box) and σ²; ``prior_rows`` G (M x D,
-    standardized, unit box: what the user measured, physics.measurements) add GᵀG to F."""
+    standardized, unit box: what the user measured, physics.measurements) add GᵀG to F; ``flatness``
+    (D,) in (0, 1] scales each eigenvalue (descending order) to the curvature E shows along it
+    (:func:`flatness`)."""
     J = np.nan_to_num(np.asarray(jacobian, dtype=float))
     F = J.T @ J / float(noise_var)
     if prior_rows is not None and np.size(prior_rows):
@@ -128,12 +133,49 @@ def pinned_directions(jacobian: np.ndarray, noise_var: float, *, dim: int,
     order = np.argsort(values)[::-1]
     values, vectors = np.clip(values[order], 0.0, None), vectors[:, order]
     vectors = vectors * np.sign(vectors[np.argmax(np.abs(vectors), axis=0), np.arange(vectors.shape[1])])
+    if flatness is not None:
+        values = values * np.clip(np.asarray(flatness, dtype=float), 1e-6, 1.0)
+        order = np.argsort(values)[::-1]
+        values, vectors = values[order], vectors[:, order]
     prior = PRIOR_PRECISION * np.max(vectors ** 2, axis=0)
     d = int(min(dim, np.sum(values > prior)))
     post = 1.0 / (values + prior)
     basis = vectors[:, :d] * np.sqrt(post[:d])
     complement = (vectors[:, d:] * post[d:]) @ vectors[:, d:].T
     return Directions(values, vectors, d, basis, complement)
+
+
+def flatness(objective: Objective, centre: np.ndarray, directions: Directions, noise_var: float, *,
+             reach: float = 3.0) -> tuple[np.ndarray, int]:
+    """(ρ (D,), evaluations): along each pinned direction k (λ_k > π_k), E at the centre û (unit box)
+    and at û ± reach s_k v_k (s_k = 1/sqrt(λ_k + π_k), clipped to the box) in one batch; the
+    quadratic through the three, E/(2σ²) = c + g t + ½ a t² (t in s_k), against the Laplace
+    approximation's a = λ_k/(λ_k + π_k) gives ρ_k = min(1, a_seen / a). A valley that curves, or
+    flattens, beyond the fit's own neighbourhood makes E rise less than J says: ρ_k < 1 widens that
+    direction to what E shows (never narrower than the Laplace width). ρ = 1 elsewhere, and where a
+    probe fails."""
+    values, vectors = directions.values, directions.vectors
+    prior = PRIOR_PRECISION * np.max(vectors ** 2, axis=0)
+    pinned = np.flatnonzero(values > prior)
+    rho = np.ones(values.size)
+    if pinned.size == 0:
+        return rho, 0
+    sd = 1.0 / np.sqrt(values[pinned] + prior[pinned])
+    steps = np.concatenate([sd, -sd]) * reach
+    axes = np.concatenate([vectors[:, pinned], vectors[:, pinned]], axis=1).T
+    probes = np.clip(centre[None] + steps[:, None] * axes, 0.0, 1.0)
+    space = objective.space
+    batch = objective.evaluate_batch(space.lower + (space.upper - space.lower) * np.vstack([centre[None], probes]))
+    errors = np.asarray(batch.errors, dtype=float) / (2.0 * noise_var)
+    t = np.einsum("kd,kd->k", probes - centre[None], axes) / np.concatenate([sd, sd])
+    for i, k in enumerate(pinned):
+        up, down = errors[1 + i] - errors[0], errors[1 + pinned.size + i] - errors[0]
+        tp, tm = t[i], t[pinned.size + i]
+        if not (np.isfinite(up) and np.isfinite(down)) or tp <= 0 or tm >= 0:
+            continue
+        seen = 2.0 * (up / tp - down / tm) / (tp - tm)           # a of the quadratic through the three points
+        rho[k] = float(np.clip(seen / (values[k] / (values[k] + prior[k])), 1e-6, 1.0))
+    return rho, int(1 + probes.shape[0])
 
 
 def best_local_fit(objective: Objective, result: IdentificationResult, config: LocalConfig
@@ -200,16 +242,19 @@ def local_stage(objective: Objective, result: IdentificationResult, *, seed: int
                              least=1e-12 * float(np.nanmedian(errors)))
     rows = prior.jacobian(fit.step.theta) if prior is not None and prior.measurements else None
     directions = pinned_directions(fit.step.jacobian, scale.noise_var, dim=config.dim, prior_rows=rows)
+    space = objective.space
+    centre = _centre(fit, scale.noise_var, prior, space.lower)
+    rho, probes = flatness(objective, centre, directions, scale.noise_var, reach=config.span)
+    directions = pinned_directions(fit.step.jacobian, scale.noise_var, dim=config.dim, prior_rows=rows,
+                                   flatness=rho)
     if directions.grid == 0:
         raise NoLocalStage("the data pin no direction beyond the box's own spread")
-    space = objective.space
-    decoder = LocalSubspace(space, _centre(fit, scale.noise_var, prior, space.lower), directions.basis,
-                           span=config.span)
+    decoder = LocalSubspace(space, centre, directions.basis, span=config.span)
     grid = Grid.for_decoder(decoder, points_per_dim=config.points_per_dim)
-    centre = int(np.argmin(np.sum(np.asarray(grid.points) ** 2, axis=1)))       # z = 0, evaluated first
+    middle = int(np.argmin(np.sum(np.asarray(grid.points) ** 2, axis=1)))       # z = 0, evaluated first
     local = search(objective, decoder, grid, budget=config.budget, seed=seed, journal=_journal(journal),
                    posterior=None, progress=progress,
-                   proposer=BOProposer(seed, initial=WarmStart([centre], SobolDesign(seed))))
+                   proposer=BOProposer(seed, initial=WarmStart([middle], SobolDesign(seed))))
     belief = _belief(objective, decoder, grid, local, fit, scale, directions, level=level,
                      vcfg=verdict_config or VerdictConfig(), seed=seed, starts=starts, prior=prior)
     belief.attrs["identifiability"] = identifiability(
@@ -222,7 +267,8 @@ def local_stage(objective: Objective, result: IdentificationResult, *, seed: int
         best_theta, best_error = best_theta.copy(data=np.asarray(theta, dtype=float)), float(error)
     config_out = dict(result.config)
     config_out["local_stage"] = {"evaluations": int(local.n_evaluations), "fit_evaluations": int(sum(
-        s.get("evaluations", 0) for s in starts)), "directions": directions.grid, "best_error": float(best_error)}
+        s.get("evaluations", 0) for s in starts)), "directions": directions.grid, "best_error": float(best_error),
+        "probe_evaluations": probes, "flatness": [float(v) for v in rho]}
     return IdentificationResult(belief=belief, history=result.history, best_theta=best_theta, best_error=best_error,
                                 config=config_out)
 

@@ -110,7 +110,7 @@ class PosteriorConfig:
 
     mode: Literal["likelihood", "minimizer"] = "likelihood"
     noise_var: float | None = None
-    noise_rule: str = "calibrated"
+    noise_rule: str = "ess"
     floor: str = "auto"
     discrepancy: float = DEFAULT_DISCREPANCY
     n_samples: int = 2000

@@ -6,8 +6,10 @@ finishes them. ``identify(objective, budget=..., seed=...)`` without a decoder a
 
     preset        stage 1: latent grid          stage 2: full space (D-dim)            finish
     handoff-gn    BO, ``latent`` evaluations    BO over Sobol θ, stage 1 carried        one Gauss-Newton step
+    handoff-local BO, ``latent`` evaluations    BO over Sobol θ, stage 1 carried        the local stage
     handoff       BO, ``latent`` evaluations    BO over Sobol θ, stage 1 carried        -
     bo-gn         -                             BO over Sobol θ                         one Gauss-Newton step
+    bo-local      -                             BO over Sobol θ                         the local stage
     bo            -                             BO over Sobol θ                         -
     random        -                             random Sobol θ                          -
     latent        BO to the budget              -                                       -
@@ -23,6 +25,11 @@ say so (:class:`PresetWarning`, ``result.config["stages"]``). The full space is 
 The finishing step moves θ off the candidates: when it lowers E, ``best_theta`` and
 ``best_error`` are its point, and ``config["local_step"]`` records both errors and its cost. P
 stays the posterior over stage 2's cells (the step is not journalled; a resumed run repeats it).
+
+The local stage (belief.local_belief) replaces P by a belief at the data's resolution: local fits,
+σ² measured from the data, Algorithm 1 on a grid of the directions the data pin. It is not counted
+in ``budget`` (``config["local_stage"]`` records its evaluations); where it cannot run (no
+residuals, nothing pinned) the search's own belief stands, with a :class:`PresetWarning`.
 """
 from __future__ import annotations
 
@@ -59,7 +66,8 @@ class PresetWarning(UserWarning):
 @dataclass(frozen=True)
 class Preset:
     """A recipe: ``latent`` evaluations of BO in a decoder's grid (0: none), then ``search`` in the full
-    space ("bo", "random", or None to stay in the latent grid), then optionally ``local_step``."""
+    space ("bo", "random", or None to stay in the latent grid), then optionally ``local_step`` (one
+    Gauss-Newton step) or ``local_stage`` (belief.local_belief)."""
 
     name: str
     latent: int = 0
@@ -67,11 +75,15 @@ class Preset:
     local_step: bool = False
     candidates: int = 4096
     points_per_dim: int = 11
+    local_stage: bool = False
 
     def __post_init__(self) -> None:
         if self.latent < 0 or (self.search is None and self.latent != 0) or self.candidates < 1:
             raise BeliefError(f"Preset {self.name!r}: latent must be >= 0 (0 when search is None: the latent stage "
                               f"then runs to the budget) and candidates >= 1, got {self.latent}, {self.candidates}.")
+        if self.local_stage and (self.local_step or self.search is None):
+            raise BeliefError(f"Preset {self.name!r}: the local stage finishes a full-space search, instead of the "
+                              "Gauss-Newton step; give one of local_step and local_stage.")
 
     @property
     def uses_latent(self) -> bool:
@@ -80,8 +92,10 @@ class Preset:
 
 PRESETS: dict[str, Preset] = {p.name: p for p in (
     Preset("handoff-gn", latent=15, local_step=True),
+    Preset("handoff-local", latent=15, local_stage=True),
     Preset("handoff", latent=15),
     Preset("bo-gn", local_step=True),
+    Preset("bo-local", local_stage=True),
     Preset("bo"),
     Preset("random", search="random"),
     Preset("latent", search=None),
@@ -186,14 +200,14 @@ def _finish(result: IdentificationResult, objective: Objective, step: StepConfig
     return result
 
 
-def _local_posterior(options: dict[str, Any], objective: Objective) -> PosteriorConfig | None:
-    """The posterior config when the finish is the local stage (belief.local_belief): a likelihood
-    posterior whose σ² the "calibrated" rule measures; None otherwise (the Gauss-Newton step finishes)."""
+def _local_posterior(options: dict[str, Any]) -> PosteriorConfig:
+    """The posterior options of a preset that finishes with the local stage (its level and, where it
+    cannot run, the search's own belief); the local stage needs the likelihood mode."""
     posterior = options.get("posterior", "likelihood")
     pcfg = PosteriorConfig() if posterior == "likelihood" else posterior
-    if not isinstance(pcfg, PosteriorConfig) or pcfg.mode != "likelihood" or pcfg.noise_var is not None \
-            or pcfg.noise_rule != "calibrated" or objective.noise_var is not None:
-        return None
+    if not isinstance(pcfg, PosteriorConfig) or pcfg.mode != "likelihood":
+        raise BeliefError("the local stage (presets '*-local') builds a likelihood posterior; leave posterior= "
+                          "at 'likelihood' or pass a PosteriorConfig in that mode.")
     return pcfg
 
 
@@ -240,9 +254,7 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
     objective = as_objective(objective, space, workers=workers)
     recipe, latent = _latent_decoder(resolve(preset), objective, decoder)
     on_stage = on_stage or (lambda name: None)
-    pcfg = _local_posterior(options, objective) if recipe.local_step and recipe.search is not None else None
-    if pcfg is not None:
-        recipe = replace(recipe, local_step=False)
+    pcfg = _local_posterior(options) if recipe.local_stage else None
     cost, least = _step_cost(recipe, objective.space.dim, step), minimum_budget(recipe, objective.space.dim, step)
     search_budget = budget - cost
     if budget < least:

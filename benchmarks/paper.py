@@ -208,7 +208,6 @@ def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, A
     the verdicts are not."""
     import warnings
 
-    from belief.posterior import PosteriorConfig
     from belief.presets import minimum_budget, run_preset
     from embeddings import REMBO
 
@@ -226,10 +225,8 @@ def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, A
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            # the comparison keeps the finish it was measured with (one Gauss-Newton step, the "ess" σ²);
-            # the local stage that ends identify now is measured in benchmarks/sharpness.py
             return run_preset(objective, preset, budget=budget, seed=seed, decoder=decoder, n_init=settings.n_init,
-                              progress=False, on_stage=on_stage, posterior=PosteriorConfig(noise_rule="ess"))
+                              progress=False, on_stage=on_stage)
     finally:
         objective.count_residuals = False
 

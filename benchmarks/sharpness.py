@@ -4,13 +4,14 @@ Scenario ``own``: for each robot (θ* drawn from the T6's ±10 % box with ``seed
 (headings 0, 2.1, 4.2 rad) of the library's own engine, recorded with ``noise`` metres of position
 noise and no velocities. Scenario ``testbed``: the foreign robot's ``perturbed`` data set of that
 seed (benchmarks/testbed, Bullet; its three flops, ``noise`` as the marker noise), scored on the
-12 parameters that act there. Two configurations identify them with the same preset (handoff-gn)
-and budget:
+12 parameters that act there. Three configurations identify them with the same budget:
 
-- ``default``: the one-step error from local-polynomial states (physics.state_estimation), σ² by
-  the "calibrated" rule and the local stage (belief.local_belief);
-- ``previous``: the backward-difference states, σ² by the "ess" rule with its model-error floor
-  δ₀ = 0.2, the global belief with the finishing Gauss-Newton step (the default before).
+- ``default``: the default preset (handoff-gn: the global belief, σ² by the "ess" rule with its
+  model-error floor δ₀ = 0.2, one finishing Gauss-Newton step) on the one-step error from
+  local-polynomial states (physics.state_estimation);
+- ``previous``: the same with the backward-difference states (the default before);
+- ``local``: the preset handoff-local: the local stage (belief.local_belief) at the data's
+  resolution, σ² measured from the data (belief.scale), on local-polynomial states.
 
 With ``--rod-mass SD`` the rod mass is given (physics.measurements, ``rod_mass`` with a relative sd).
 The "local width" of a parameter is its std from the Laplace approximation at θ* with the σ²
@@ -34,14 +35,13 @@ from tqdm import tqdm
 
 from belief import identify
 from belief.least_squares import gauss_newton_step
-from belief.posterior import PosteriorConfig
 from belief.scale import calibrated_scale
 from physics import FlopController, ParameterSpace, StateEstimator, TrajectoryObjective, load_trajectory, simulate
 from physics.measurements import Measurement, MeasurementPrior, rod_mass
 
 RESULTS = Path(__file__).parent / "results" / "sharpness.jsonl"
 HEADINGS = (0.0, 2.1, 4.2)
-CONFIGS = ("default", "previous")
+CONFIGS = ("default", "previous", "local")
 
 
 def _flops(theta: np.ndarray, noise: float, seed: int) -> list:
@@ -85,13 +85,13 @@ def row(scenario: str, seed: int, noise: float, config: str, rod_sd: float | Non
     if rod_sd is not None:
         mass = float(rod_mass(space, truth[None])[0])
         prior = MeasurementPrior(space, (Measurement("rod_mass", mass, rod_sd * mass),))
-    states = StateEstimator() if config == "default" else StateEstimator(method="backward")
-    posterior = PosteriorConfig() if config == "default" else PosteriorConfig(noise_rule="ess")
+    states = StateEstimator(method="backward") if config == "previous" else StateEstimator()
+    preset = "handoff-local" if config == "local" else "handoff-gn"
     start = time.perf_counter()
     with TrajectoryObjective(flops, n_workers=workers, states=states) as E:
-        result = identify(E, budget=budget, seed=seed, posterior=posterior, progress=False, measurements=prior)
+        result = identify(E, budget=budget, seed=seed, preset=preset, progress=False, measurements=prior)
         seconds = time.perf_counter() - start
-        local = _local_width(E, truth, prior) if config == "default" and scenario == "own" else None
+        local = _local_width(E, truth, prior) if config != "previous" and scenario == "own" else None
         error_true = float(E(truth))
     m = result.belief.marginals()
     out = {"scenario": scenario, "seed": seed, "noise_m": noise, "config": config, "rod_mass_sd": rod_sd,

@@ -265,15 +265,14 @@ def identify_from(objective: Objective, warm: np.ndarray | None, *, budget: int,
                   posterior: PosteriorConfig | None = None) -> IdentificationResult:
     """Full-space BO on ``objective`` over ``candidates`` Sobol cells, ``budget`` evaluations;
     ``warm`` (D,), a fit the caller already has, becomes cell 0 and is evaluated first;
-    ``posterior``: the belief's options (default: the likelihood posterior with the "ess" noise rule,
-    the one the effect search's figures were measured with; identify's default is "calibrated")."""
+    ``posterior``: the belief's options (default: the likelihood posterior's)."""
     space = objective.space
     decoder = Identity(space)
     include = None if warm is None else decoder.encode(np.clip(warm, space.lower, space.upper))[None]
     grid = SobolCandidates(decoder.bounds, n=candidates, seed=seed, include=include)
     proposer = "bo" if warm is None else BOProposer(seed, initial=WarmStart([0], SobolDesign(seed)))
     return identify(objective, decoder, grid, budget=budget, seed=seed, proposer=proposer,
-                    journal=journal, progress=progress, posterior=posterior or PosteriorConfig(noise_rule="ess"))
+                    journal=journal, progress=progress, posterior=posterior or PosteriorConfig())
 
 
 def _check_held_out(n: int, held_out: Sequence[int] | None) -> list[int]:

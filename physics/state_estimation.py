@@ -27,7 +27,9 @@ noise-free flops it moves the minimum of E by a fraction of the local width at 1
 (docs/identification.md, benchmarks/objective_bias.py).
 
 ``"backward"`` is the second-order backward difference (first order where x_{i−2} is missing), with
-the recorded positions as they are: the paper's one-step error.
+the recorded positions as they are: the paper's one-step error. Its truncation error is smaller
+(it spans 3 samples, not 13), so on noise-free positions (simulated data without velocities) it
+gives the sharper objective; recorded motion always carries noise.
 
 Samples that are NaN are left out of a fit; a state whose fit has fewer than ``degree + 2``
 samples, or whose own sample is missing, cannot be rebuilt (NaN).

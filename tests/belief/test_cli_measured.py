@@ -71,7 +71,7 @@ def test_measured_and_fixed_values_are_recorded_and_the_fixed_leave_the_search(t
     out = tmp_path / "run"
     assert main(["identify", *TOY, "--measured", "m = 1.0 ± 0.1", "--fix", "mu=0.4", "--out", str(out)]) == 0
     captured = capsys.readouterr()
-    assert "note: --measured values enter the posterior of the local stage" in captured.err
+    assert "note: --measured values enter the posterior of the local stage (presets '*-local'" in captured.err
     assert "Measured by the user:" in captured.out
     result = IdentificationResult.load(out / "result.nc")
     assert result.config["measurements"] == [{"name": "m", "value": 1.0, "sd": 0.1, "unit": "kg"}]

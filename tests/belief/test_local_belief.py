@@ -6,7 +6,7 @@ import pytest
 
 from belief import Belief, identify
 from belief.errors import BeliefError
-from belief.local_belief import LocalConfig, pinned_directions
+from belief.local_belief import LocalConfig, flatness, pinned_directions
 from belief.spread import ComplementSpread
 from physics import ParameterSpace
 from physics.measurements import Measurement, MeasurementPrior
@@ -70,7 +70,7 @@ def _exact_std(A: np.ndarray) -> np.ndarray:
 
 def test_the_belief_is_local_with_the_data_width_and_holds_the_truth() -> None:
     obj, truth = _problem(0)
-    result = identify(obj, budget=12, seed=0, preset="bo-gn", progress=False)
+    result = identify(obj, budget=12, seed=0, preset="bo-local", progress=False)
     b = result.belief
     assert isinstance(b.spread, ComplementSpread) and b.decoder_config["kind"] == "local"
     assert result.config["local_stage"]["directions"] == 3
@@ -90,7 +90,7 @@ def test_90_percent_intervals_cover_the_truth_at_the_stated_rate() -> None:
     covered = 0
     for seed in range(30):
         obj, truth = _problem(100 + seed)
-        m = identify(obj, budget=10, seed=seed, preset="bo-gn", progress=False,
+        m = identify(obj, budget=10, seed=seed, preset="bo-local", progress=False,
                      local=LocalConfig(budget=10)).belief.marginals()
         covered += int(np.sum((m["lower"].values <= truth) & (truth <= m["upper"].values)))
     assert covered >= 73
@@ -103,7 +103,7 @@ def test_a_direction_the_data_do_not_see_keeps_its_prior() -> None:
     col = rng.normal(size=400)
     A = np.column_stack([col, col, rng.normal(size=400)])
     obj, truth = _problem(7, A)
-    b = identify(obj, budget=12, seed=0, preset="bo-gn", progress=False).belief
+    b = identify(obj, budget=12, seed=0, preset="bo-local", progress=False).belief
     assert "identified" not in b.verdict[:2] and b.verdict[2] == "identified"
     m = b.marginals()
     assert np.all(m["std"].values[:2] > 0.7 / np.sqrt(12))
@@ -117,7 +117,7 @@ def test_a_measurement_pins_what_the_data_leave_free() -> None:
     A = np.column_stack([col, col, rng.normal(size=400)])
     obj, truth = _problem(8, A)
     prior = MeasurementPrior(obj.space, (Measurement("p0", float(truth[0]), 0.002),))
-    b = identify(obj, budget=12, seed=0, preset="bo-gn", progress=False, measurements=prior).belief
+    b = identify(obj, budget=12, seed=0, preset="bo-local", progress=False, measurements=prior).belief
     m = b.marginals()
     assert "not identified" not in b.verdict
     assert np.all((m["lower"].values <= truth) & (truth <= m["upper"].values))
@@ -126,7 +126,7 @@ def test_a_measurement_pins_what_the_data_leave_free() -> None:
 
 def test_the_local_belief_round_trips_through_a_file(tmp_path) -> None:
     obj, _ = _problem(9)
-    b = identify(obj, budget=12, seed=0, preset="bo-gn", progress=False).belief
+    b = identify(obj, budget=12, seed=0, preset="bo-local", progress=False).belief
     b.save(tmp_path / "b.nc")
     back = Belief.load(tmp_path / "b.nc")
     assert back.spread == b.spread and np.allclose(back.interval(), b.interval())
@@ -150,3 +150,35 @@ def test_pinned_directions_follow_the_information() -> None:
 def test_bad_settings_are_refused(kwargs: dict, match: str) -> None:
     with pytest.raises(BeliefError, match=match):
         LocalConfig(**kwargs)
+
+
+class Saturating(Linear):
+    """y = A h(θ), h_j = θ0_j + c tanh((θ_j − θ0_j)/c) for j = 0 (the others linear): near θ0 the
+    same Jacobian as the linear model, beyond c the data stop telling θ_0 apart."""
+
+    def __init__(self, A: np.ndarray, y: np.ndarray, theta0: np.ndarray, c: float) -> None:
+        super().__init__(A, y)
+        self.theta0, self.c = theta0, c
+
+    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
+        h = np.asarray(theta, float).copy()
+        h[0] = self.theta0[0] + self.c * np.tanh((h[0] - self.theta0[0]) / self.c)
+        r = self.y - self.A @ h
+        return [part[:, None] for part in np.array_split(r, 4)]
+
+
+def test_flatness_widens_a_direction_where_e_rises_less_than_its_jacobian_says() -> None:
+    rng = np.random.default_rng(11)
+    A = rng.normal(size=(400, 3))
+    theta0 = np.array([0.5, 0.5, 0.5])
+    y = A @ theta0 + rng.normal(0, SIGMA, 400)
+    sd0 = _exact_std(A)[0]
+    for obj, expect_flat in ((Linear(A, y), False), (Saturating(A, y, theta0, c=sd0), True)):
+        d = pinned_directions(np.vstack([-A]), SIGMA ** 2, dim=3)
+        rho, spent = flatness(obj, theta0, d, SIGMA ** 2, reach=3.0)
+        assert spent == 1 + 2 * 3                                    # the centre and ± along 3 directions
+        loads = np.abs(d.vectors[0])                                 # θ_0's loading on each direction
+        if expect_flat:
+            assert np.min(rho[loads > 0.5]) < 0.5, rho
+        else:
+            assert np.all(rho > 0.8), rho
