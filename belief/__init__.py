@@ -1,7 +1,8 @@
 """What we believe about θ: grids over a latent box, the GP surrogate (pyro), log expected
 improvement, the posterior P over the grid and its Belief object with verdicts (and the parameters
 pinned at a bound of the box, evidence of model inadequacy), the identifiability map (what the
-data pin: directions, symmetries, inert parameters), noise rules for
+data pin: directions, symmetries, inert parameters), the local stage at the data's resolution,
+the likelihood's scale measured from the data, noise rules for
 data with model error, proposers and the identification driver (Zhu et al. 2018, Algorithm 1),
 and its SQLite journal.
 
@@ -27,7 +28,8 @@ from belief.handoff import Carried, carry_over, continue_in
 from belief.identifiability import Direction, Identifiability, Symmetry, identifiability
 from belief.identify import identify
 from belief.journal import Journal, Record
-from belief.least_squares import LocalStep, StepConfig, gauss_newton_step
+from belief.least_squares import FitConfig, LocalStep, StepConfig, gauss_newton_fit, gauss_newton_step
+from belief.local_belief import LocalConfig, NoLocalStage, local_stage
 from belief.noise import (
     DEFAULT_DISCREPANCY,
     NOISE_RULES,
@@ -52,6 +54,7 @@ from belief.presets import DEFAULT_PRESET, PRESETS, Preset, PresetWarning, run_p
 from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, SobolDesign
 from belief.result import IdentificationResult
 from belief.sampling import SamplingBelief
+from belief.scale import Scale, ScaleConfig, calibrated_scale
 from belief.search import problem_fingerprint, search
 from belief.surrogate import GPSurrogate, SurrogateConfig
 from belief.verdicts import VERDICTS, VerdictConfig
@@ -71,4 +74,6 @@ __all__ = [
     "IdentificationResult", "Carried", "carry_over", "continue_in",
     "LocalStep", "StepConfig", "gauss_newton_step", "AT_BOUND_TOLERANCE", "AtBound", "at_bounds",
     "Direction", "Identifiability", "Symmetry", "identifiability",
+    "FitConfig", "gauss_newton_fit", "LocalConfig", "NoLocalStage", "local_stage", "ScaleConfig", "Scale",
+    "calibrated_scale",
 ]
