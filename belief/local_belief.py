@@ -67,6 +67,7 @@ from physics.objective import Objective
 __all__ = ["LocalConfig", "DEFAULT_LOCAL", "Directions", "NoLocalStage", "pinned_directions", "flatness",
            "best_local_fit", "local_stage"]
 
+
 class NoLocalStage(BeliefError):
     """The local stage cannot run here (its message says why); the global belief stands."""
 
@@ -119,9 +120,9 @@ class Directions:
 
 
 def pinned_directions(jacobian: np.ndarray, noise_var: float, *, dim: int,
-                      prior_rows: np.ndarray | None = None, flatness: np.ndarray | None = None) -> Directions:
+                      prior_rows: np.ndarray | None = None, curvature: np.ndarray | None = None) -> Directions:
     """Steps 3 and 5 of the module docstring from J (K x D, unit box) and σ²; ``prior_rows`` G (M x D,
-    standardized, unit box: what the user measured, physics.measurements) add GᵀG to F; ``flatness``
+    standardized, unit box: what the user measured, physics.measurements) add GᵀG to F; ``curvature``
     (D,) in (0, 1] scales each eigenvalue (descending order) to the curvature E shows along it
     (:func:`flatness`)."""
     J = np.nan_to_num(np.asarray(jacobian, dtype=float))
@@ -133,8 +134,8 @@ def pinned_directions(jacobian: np.ndarray, noise_var: float, *, dim: int,
     order = np.argsort(values)[::-1]
     values, vectors = np.clip(values[order], 0.0, None), vectors[:, order]
     vectors = vectors * np.sign(vectors[np.argmax(np.abs(vectors), axis=0), np.arange(vectors.shape[1])])
-    if flatness is not None:
-        values = values * np.clip(np.asarray(flatness, dtype=float), 1e-6, 1.0)
+    if curvature is not None:
+        values = values * np.clip(np.asarray(curvature, dtype=float), 1e-6, 1.0)
         order = np.argsort(values)[::-1]
         values, vectors = values[order], vectors[:, order]
     prior = PRIOR_PRECISION * np.max(vectors ** 2, axis=0)
@@ -246,7 +247,7 @@ def local_stage(objective: Objective, result: IdentificationResult, *, seed: int
     centre = _centre(fit, scale.noise_var, prior, space.lower)
     rho, probes = flatness(objective, centre, directions, scale.noise_var, reach=config.span)
     directions = pinned_directions(fit.step.jacobian, scale.noise_var, dim=config.dim, prior_rows=rows,
-                                   flatness=rho)
+                                   curvature=rho)
     if directions.grid == 0:
         raise NoLocalStage("the data pin no direction beyond the box's own spread")
     decoder = LocalSubspace(space, centre, directions.basis, span=config.span)
