@@ -19,7 +19,8 @@ tens of posterior widths across in rod_length. So the identification continues l
        direction is pinned by the data when λ_k > π_k. The ``dim`` most pinned span the grid:
        w_k = v_k / sqrt(λ_k + π_k), one posterior sd (embeddings.LocalSubspace),
        ``points_per_dim`` points on [−span, span] each
-    4  Algorithm 1 (GP + EI, belief.search) on that grid for ``budget`` evaluations, the centre
+    4  Algorithm 1 (GP + EI, belief.search) on that grid for ``budget`` evaluations (at most every
+       cell), the centre
        first, P from the GP with the σ² of step 2 (belief.posterior, likelihood mode)
     5  the other directions keep their local posterior: every cell is spread by the normal with
        covariance Σ_⊥ = Σ_{k > dim} v_k v_kᵀ / (λ_k + π_k), truncated to the box
@@ -253,7 +254,7 @@ def local_stage(objective: Objective, result: IdentificationResult, *, seed: int
     decoder = LocalSubspace(space, centre, directions.basis, span=config.span)
     grid = Grid.for_decoder(decoder, points_per_dim=config.points_per_dim)
     middle = int(np.argmin(np.sum(np.asarray(grid.points) ** 2, axis=1)))       # z = 0, evaluated first
-    local = search(objective, decoder, grid, budget=config.budget, seed=seed, journal=_journal(journal),
+    local = search(objective, decoder, grid, budget=min(config.budget, grid.size), seed=seed, journal=_journal(journal),
                    posterior=None, progress=progress,
                    proposer=BOProposer(seed, initial=WarmStart([middle], SobolDesign(seed))))
     belief = _belief(objective, decoder, grid, local, fit, scale, directions, level=level,

@@ -111,6 +111,16 @@ def test_a_direction_the_data_do_not_see_keeps_its_prior() -> None:
     assert np.std(draws[:, 0] + draws[:, 1]) < 0.05 * np.std(draws[:, 0])        # the sum is pinned
 
 
+def test_one_pinned_direction_makes_a_grid_smaller_than_the_budget() -> None:
+    """Three identical columns: the data see only their sum, a grid of 7 cells for a budget of 20."""
+    col = np.random.default_rng(12).normal(size=400)
+    obj, truth = _problem(12, np.column_stack([col, col, col]))
+    result = identify(obj, budget=12, seed=0, preset="bo-local", progress=False)
+    assert result.config["local_stage"]["directions"] == 1 and result.config["local_stage"]["evaluations"] == 7
+    draws = result.belief.sample(2000, seed=0)
+    assert np.std(draws.sum(axis=1)) < 0.1 * np.std(draws[:, 0])
+
+
 def test_a_measurement_pins_what_the_data_leave_free() -> None:
     rng = np.random.default_rng(8)
     col = rng.normal(size=400)
