@@ -1,7 +1,7 @@
 """Motor actuators that wind the cables: the rest length L0 follows a commanded target.
 
 Each of the 24 cables has a spool of radius r on a motor of inertia J and viscous friction b
-(NTRT ``tgKinematicActuator``; shared/reference/t6-superball.md). Per step of length dt:
+(NTRT ``tgKinematicActuator``, NASA-Tensegrity-Robotics-Toolkit/NTRTsim). Per step of length dt:
 
     ω_d   = clip(-K_p (L0 - L_pref), ±v_max) / r          desired spool speed [rad/s]
     τ_d   = K_v (ω_d - ω)                                  motor-driver torque command [N m]

@@ -14,7 +14,7 @@ h = 0 and β = 0 (the :class:`CableLaw` defaults) give NTRT's linear spring-damp
 is the one place the law is written: the simulation (:func:`cable_wrenches`) and the one-step
 predictor's actuator reconstruction (physics.predictor) both call it.
 
-node a receives +F u, node b receives -F u (NTRT ``tgSpringCable``; shared/reference/t6-superball.md).
+node a receives +F u, node b receives -F u (NTRT ``tgSpringCable``, NASA-Tensegrity-Robotics-Toolkit/NTRTsim).
 
 Each rod is one FreeJoint body whose origin is its centre of mass and whose local z axis is the
 rod axis; nodes are c ± h·a with a the rod axis in world coordinates. The wrench on rod i is

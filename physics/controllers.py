@@ -11,7 +11,7 @@ centre of mass past the edge of the base triangle facing the goal, so the robot 
 next face. Which cables: the ones with the largest measured effect on the centre of mass along
 the goal direction, found by short trial simulations of the controller's own *nominal* model
 from the observed state (a plain geometric rule tipped the robot in 1 of 9 trials in an
-independent model; this choice tipped it every time, shared/reference/t6-superball.md).
+independent model; this choice tipped it every time).
 """
 from __future__ import annotations
 

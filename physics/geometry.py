@@ -7,7 +7,7 @@ With h = rod_length / 2 and s = rod_space the 12 nodes (rod endpoints) are::
     n8=(-h,0,s)   n9=(h,0,s)    n10=(-h,0,-s) n11=(h,0,-s)   rods along x
 
 Rod i joins nodes 2i and 2i+1. Each of the 24 cables joins nodes of different rods; every node has
-four. Source: shared/reference/t6-superball.md (NTRT T6Model).
+four. Source: NTRT's ``src/examples/SUPERball/T6Model.cpp`` (NASA-Tensegrity-Robotics-Toolkit/NTRTsim).
 """
 from __future__ import annotations
 

@@ -6,8 +6,8 @@ float array in that order (shape ``D`` or ``n x D``) or as an ``xarray.DataArray
 
     u = (θ - lower) / (upper - lower),     θ = lower + u (upper - lower)
 
-Values of the 15 SUPERball parameters come from ``shared/reference/t6-superball.md`` (NTRT's T6
-model, converted to SI); see docs/parameters.md for the table with sources.
+Values of the 15 SUPERball parameters come from NTRT's T6 model (NASA-Tensegrity-Robotics-Toolkit/NTRTsim
+``src/examples/SUPERball/T6Model.cpp`` at 4336712b), converted to SI; see docs/parameters.md for the table with sources.
 """
 from __future__ import annotations
 
@@ -68,7 +68,7 @@ class Parameter:
         return value > self.minimum if self.strict else value >= self.minimum
 
 
-# name, unit, nominal, description  (SI; reference: shared/reference/t6-superball.md)
+# name, unit, nominal, description  (SI; source: NTRT's T6Model.cpp, docs/parameters.md)
 _T6_TABLE: tuple[tuple[str, str, float, str], ...] = (
     ("density", "kg/m^3", 311.0, "density of the two end segments of a rod"),
     ("radius", "m", 0.06, "radius of the end segments (also the contact radius)"),

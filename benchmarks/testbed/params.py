@@ -1,6 +1,6 @@
 """The testbed robot's 15 parameters (SI) and its geometry, written from the SUPERball facts.
 
-Names and nominal values are SUPERball's (shared/reference/t6-superball.md), so that a data set
+Names and nominal values are SUPERball's (NTRT's T6Model.cpp, docs/parameters.md), so that a data set
 can state the θ that made it in the names an identifier uses. The box is ±10 % around nominal.
 The testbed's actuator is NTRT's basic one (rest length toward target at a limited speed), so the
 three motor parameters (motor_radius, motor_friction, motor_inertia) are inert here, as they were
