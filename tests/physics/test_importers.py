@@ -122,7 +122,10 @@ def test_convert_never_overwrites_or_half_writes(tmp_path: Path, flop: xr.Datase
         main(["convert", str(csv), str(fresh), "--units", "inch"])
     assert not fresh.exists()
     assert main(["convert", str(csv), str(fresh), "--up", "y", "--time-unit", "ms"]) == 2    # mm read as metres
-    assert "hint: the CSV's lengths look like mm: convert again with --units mm --force." in capsys.readouterr().out
+    printed = capsys.readouterr()
+    assert "hint: the CSV's lengths look like mm: convert again with --units mm." in printed.out
+    assert f"convert again with: tensegrid convert {csv} {fresh} --units mm --up y --time-unit ms" in printed.err
+    assert not fresh.exists()                                                        # nothing written on an error
     assert main(["convert", str(csv), str(fresh), "--units", "mm", "--up", "y", "--time-unit", "ms", "--force"]) == 0
     assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".partial")] == []
 
