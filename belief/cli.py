@@ -199,7 +199,7 @@ def _objective(args: argparse.Namespace, effects: tuple[Effect, ...], cleanup: c
     if not getattr(args, "skip_checks", False):
         from physics.cli_check import preflight
 
-        preflight(datasets, args.data, "identify")          # raises DataCheckError before any evaluation
+        preflight(datasets, args.data, "identify", known.space)     # DataCheckError, ParameterError: no evaluation
     trajectories = cleanup.enter_context(TrajectoryObjective(
         datasets, space=space, horizon=1, loss=args.loss, windows=args.windows, options=options,
         n_workers=args.workers if args.workers > 1 else 0, effects=effects, states=StateEstimator(method=args.states)))

@@ -8,7 +8,8 @@ controls' units, range and meaning. Severity ``error`` makes identification mean
 units, wrong up axis, swapped ends); ``warning`` biases or weakens it; ``info`` describes the file.
 
 Lengths and times found in another unit (millimetres, milliseconds) are converted before the
-later checks, so one mistake gives one error. The loader (physics.trajectory) raises nothing for
+later checks, so one mistake gives one error. :func:`require_rods_in_box` holds an identification's
+prior box to the rod length the markers measure. The loader (physics.trajectory) raises nothing for
 what only these checks see.
 """
 from __future__ import annotations
@@ -20,13 +21,14 @@ import numpy as np
 import xarray as xr
 
 from physics.checks_robot import LENGTH_UNITS, check_controls, check_ground, check_rod_labels
-from physics.errors import TrajectoryFormatError
+from physics.errors import ParameterError, TrajectoryFormatError
 from physics.findings import DataCheckError, DataReport, Finding
 from physics.geometry import CABLE_NODES, N_NODES, ROD_NODES, node_positions
 from physics.parameters import ParameterSpace
 
 __all__ = ["Finding", "DataReport", "DataCheckError", "check_trajectory", "check_file", "require_clean",
-           "rest_length_range", "check_time", "check_length_units", "check_dropouts", "check_jumps"]
+           "require_rods_in_box", "rest_length_range", "check_time", "check_length_units", "check_dropouts",
+           "check_jumps"]
 
 #: Plausible sampling intervals of a recording [s] (10 Hz to 5 kHz).
 INTERVAL_RANGE = (2e-4, 0.1)
@@ -40,6 +42,9 @@ MAX_NODE_SPEED = 10.0
 #: neighbours is a glitch: a flopping T6's nodes stay within about 2 mm of it at 100 Hz.
 SPIKE_MIN = 0.01
 SPIKE_ACCELERATION = 200.0
+#: How far [m] the rods' measured length may lie outside the rod_length box before an identification
+#: refuses the box: markers are noisy by a few mm, and the medians over samples and rods shrink that.
+ROD_LENGTH_TOLERANCE = 0.005
 
 
 def _t6_box(space: ParameterSpace, name: str) -> tuple[float, float, float]:
@@ -256,3 +261,19 @@ def require_clean(datasets: Sequence[xr.Dataset], sources: Sequence[str], space:
         raise DataCheckError("\n".join([*errors, "Run `tensegrid check FILE ...` for the whole report, or pass "
                                                   "--skip-checks to run anyway."]))
     return reports
+
+
+def require_rods_in_box(reports: Sequence[DataReport], space: ParameterSpace) -> None:
+    """Raise :class:`ParameterError` (one line: the file, the rods' measured length, the box and the
+    options that fix it) when a report's median rod length [m] lies more than ROD_LENGTH_TOLERANCE
+    outside the rod_length box of ``space``: no θ in that box can place the markers where they are."""
+    _, lo, hi = _t6_box(space, "rod_length")
+    for report in reports:
+        rod = report.rod_length
+        if not np.isfinite(rod) or lo - ROD_LENGTH_TOLERANCE <= rod <= hi + ROD_LENGTH_TOLERANCE:
+            continue
+        off = 1e3 * (lo - rod if rod < lo else rod - hi)
+        raise ParameterError(f"{report.source or 'the data'}: the rods measure {rod:.4g} m (median distance of "
+                             f"their end markers), {off:.0f} mm outside the rod_length box [{lo:.4g}, {hi:.4g}] m "
+                             f"(tolerance {1e3 * ROD_LENGTH_TOLERANCE:g} mm); give --bounds rod_length="
+                             f"{0.9 * rod:.3g}:{1.1 * rod:.3g} or --nominal rod_length={rod:.4g}.")

@@ -13,8 +13,9 @@ from typing import Any
 
 import xarray as xr
 
-from physics.checks import check_file, require_clean
+from physics.checks import check_file, require_clean, require_rods_in_box
 from physics.findings import DataReport, Severity
+from physics.parameters import ParameterSpace
 
 __all__ = ["register_check", "run_check", "preflight"]
 
@@ -48,10 +49,15 @@ def run_check(args: argparse.Namespace) -> int:
     return 2 if bad else 0
 
 
-def preflight(datasets: Sequence[xr.Dataset], sources: Sequence[str], command: str) -> list[DataReport]:
+def preflight(datasets: Sequence[xr.Dataset], sources: Sequence[str], command: str,
+              space: ParameterSpace | None = None) -> list[DataReport]:
     """The checks ``identify`` and ``diagnose`` run first: print each warning to stderr as
-    ``tensegrid COMMAND: note: ...``; raise DataCheckError (one line per error) if any file has an error."""
-    reports = require_clean(datasets, sources)
+    ``tensegrid COMMAND: note: ...``; raise DataCheckError (one line per error) if any file has an error.
+    With ``space``, the prior box the command identifies in: the checks use its box, and a rod_length
+    box that excludes the rods the markers measure is a ParameterError (physics.checks.require_rods_in_box)."""
+    reports = require_clean(datasets, sources, space)
+    if space is not None:
+        require_rods_in_box(reports, space)
     for report in reports:
         for line in report.lines(severities=("warning",)):
             print(f"tensegrid {command}: note: {line}", file=sys.stderr)

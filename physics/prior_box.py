@@ -17,6 +17,12 @@ nominal::
 
 ``prior_box.json`` written by ``tensegrid identify`` has this format, so it reproduces a run's box.
 The command line's values override the file's, parameter by parameter and field by field.
+
+A nominal or a box that lies wholly on one side of the default box, more than
+physics.quantities.UNIT_SLIP times away and by the factor of a common wrong unit (1000: millimetres
+for metres), is refused as a unit slip naming the SI value meant, by the rule ``--measured`` uses
+(physics.quantities.unit_slip); a box far away by no such factor is a robot unlike the default one,
+and stays allowed.
 """
 from __future__ import annotations
 
@@ -30,6 +36,7 @@ from typing import Any
 
 from physics.errors import ParameterError
 from physics.parameters import ParameterSpace
+from physics.quantities import UnitSlip, unit_slip, unit_text
 
 __all__ = ["prior_box", "parse_nominal", "parse_bounds", "read_params_file", "box_record", "box_changes",
            "add_prior_box_options", "prior_box_from_args"]
@@ -134,12 +141,50 @@ def read_params_file(path: str, space: ParameterSpace) -> tuple[dict[str, float]
     return nominal, bounds
 
 
+def _slip(space: ParameterSpace, name: str, values: tuple[float, ...]) -> UnitSlip | None:
+    """The unit slip of a nominal ``(value,)`` or a box ``(lo, hi)`` of parameter ``name``: when every
+    value lies on one side of ``space``'s box, its nearest value is a unit slip and a common wrong unit
+    explains it (physics.quantities.unit_slip); None otherwise."""
+    lower, upper = space[name].lower, space[name].upper
+    nearest = min(values) if min(values) > upper else max(values) if max(values) < lower else None
+    slip = None if nearest is None else unit_slip(space, name, nearest)
+    return slip if slip is not None and slip.factor is not None else None
+
+
+def _refuse_unit_slips(space: ParameterSpace, nominal: Mapping[str, float], bounds: Mapping[str, tuple[float, float]],
+                       *, params: str | None) -> None:
+    """Raise :class:`ParameterError` (one line, with the SI values meant) for the first parameter whose
+    nominal and box together are a unit slip against the default box ``space`` (:func:`_slip`); ``params``
+    names the file the values come from, None for the command line's ``--nominal``/``--bounds``."""
+    for name in dict.fromkeys([*nominal, *bounds]):
+        given = {**({"nominal": nominal[name]} if name in nominal else {}),
+                 **(dict(zip(("lower", "upper"), bounds[name], strict=True)) if name in bounds else {})}
+        slip = _slip(space, name, tuple(given.values()))
+        if slip is None or slip.factor is None:
+            continue
+        meant = {field: f"{value / slip.factor:.6g}" for field, value in given.items()}
+        unit = unit_text(slip.unit)
+        if params is not None:
+            said = ", ".join(f"{field} = {value:g}" for field, value in given.items())
+            write = ", ".join(f"{field} = {value}" for field, value in meant.items())
+            raise ParameterError(f"--params {params}: {name} {said}{unit} {slip.clause()}; write {write} in the file.")
+        both: list[tuple[str, tuple[str, ...]]] = [(f"--nominal {name}=", ("nominal",)),
+                                                   (f"--bounds {name}=", ("lower", "upper"))]
+        options = [(option, fields) for option, fields in both if fields[0] in given]
+        said = " and ".join(option + ":".join(f"{given[f]:g}" for f in fields) for option, fields in options)
+        give = " ".join(option + ":".join(meant[f] for f in fields) for option, fields in options)
+        raise ParameterError(f"{said}{unit} {slip.clause()}; give {give}.")
+
+
 def prior_box(space: ParameterSpace, *, nominal: Sequence[str] = (), bounds: Sequence[str] = (),
               params: str | None = None) -> ParameterSpace:
     """``space`` with the box given by a parameter file and the ``--nominal``/``--bounds`` items
-    (these win); ``space`` itself when none is given. Raises :class:`ParameterError`, one line."""
+    (these win); ``space`` itself when none is given. Raises :class:`ParameterError`, one line, for a
+    malformed item and for a unit slip against ``space``'s box (module docstring)."""
     file_nominal, file_bounds = read_params_file(params, space) if params else ({}, {})
     cli_nominal, cli_bounds = parse_nominal(nominal, space), parse_bounds(bounds, space)
+    _refuse_unit_slips(space, file_nominal, file_bounds, params=params)
+    _refuse_unit_slips(space, cli_nominal, cli_bounds, params=None)
     if not (file_nominal or file_bounds or cli_nominal or cli_bounds):
         return space
     return space.with_overrides(nominal={**file_nominal, **cli_nominal}, bounds={**file_bounds, **cli_bounds})

@@ -18,7 +18,8 @@ corners of the box of the parameters it depends on and at 256 Sobol points betwe
 (``scipy.stats.qmc``, unscrambled, so the same box gives the same range), the others at their
 nominal values. It is exact for quantities monotone in each parameter (the masses) and a close
 inner estimate otherwise. :func:`check_value` uses it to refuse what the box cannot produce, and
-calls a value more than :data:`UNIT_SLIP` times outside it a unit slip (grams for kilograms).
+calls a value more than :data:`UNIT_SLIP` times outside it a unit slip (grams for kilograms),
+:func:`unit_slip`, the rule the prior box's options share (physics.prior_box).
 """
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ from physics.parameters import ParameterSpace
 
 __all__ = ["Quantity", "QUANTITIES", "UNIT_SLIP", "rod_mass", "total_mass", "rod_inertia", "known_quantities",
            "quantity_unit", "depends_on", "measured_values", "quantity_range", "check_value",
-           "unit_text"]
+           "unit_text", "UnitSlip", "unit_slip"]
 
 #: A value more than this factor above the box's range (or below it) is reported as a unit slip.
 UNIT_SLIP = 20.0
@@ -202,16 +203,49 @@ def unit_text(unit: str) -> str:
     return "" if unit in ("", "1") else f" {unit}"
 
 
-def _slip_hint(unit: str, ratio: float) -> str:
-    """'(did you give grams?)' when ``ratio`` = value / its value at the nominal θ matches a common wrong unit."""
-    near = [(abs(math.log10(ratio / factor)), other) for factor, other in _SLIPS.get(unit, ())
-            if abs(math.log10(ratio / factor)) < 0.5]
-    return f" (did you give {min(near)[1]}?)" if near else "; give it in SI units"
-
-
 def _times(ratio: float) -> str:
     """A factor rounded to two significant digits, written plainly: 296.4 -> '300', 1e6 -> '1e+06'."""
     return f"{float(f'{ratio:.2g}'):g}"
+
+
+@dataclass(frozen=True)
+class UnitSlip:
+    """A value of a quantity more than :data:`UNIT_SLIP` times outside the range [``low``, ``high``]
+    the prior box allows: ``ratio`` is the value over the quantity at the nominal θ, and when that
+    ratio lies within half a decade of a common wrong unit (``_SLIPS``: 1000 for grams of a kg
+    quantity), ``wrong`` names that unit and ``factor`` is the ratio it implies (value / factor is
+    then the SI value meant); both None otherwise."""
+
+    unit: str
+    low: float
+    high: float
+    ratio: float
+    factor: float | None
+    wrong: str | None
+
+    def clause(self) -> str:
+        """"is 1000 times the box's range 1.52-5.23 kg: the unit is kg (did you give grams?)"."""
+        size = f"{_times(self.ratio)} times" if self.ratio > 1 else f"1/{_times(1 / self.ratio)} of"
+        hint = f" (did you give {self.wrong}?)" if self.wrong else "; give it in SI units"
+        return (f"is {size} the box's range {self.low:.3g}-{self.high:.3g}{unit_text(self.unit)}: the unit is "
+                f"{unit_text(self.unit).strip() or '1 (none)'}{hint}")
+
+
+def unit_slip(space: ParameterSpace, name: str, value: float) -> UnitSlip | None:
+    """The :class:`UnitSlip` of ``value`` for quantity ``name`` on ``space`` when it lies more than
+    :data:`UNIT_SLIP` times above :func:`quantity_range` (or below it, for a positive value), else None.
+    Shared by what the user measures or fixes (:func:`check_value`) and the prior box they set
+    (physics.prior_box), so that both call a slip by the same rule."""
+    lo, hi = quantity_range(space, name)
+    if not (value > UNIT_SLIP * hi or 0 < value < lo / UNIT_SLIP):
+        return None
+    typical = _or_nan(space, space.nominal, name)
+    ratio = value / (typical if typical > 0 else 0.5 * (lo + hi))
+    unit = quantity_unit(space, name)
+    near = [(abs(math.log10(ratio / factor)), factor, other) for factor, other in _SLIPS.get(unit, ())
+            if abs(math.log10(ratio / factor)) < 0.5]
+    _, factor, wrong = min(near) if near else (None, None, None)
+    return UnitSlip(unit=unit, low=lo, high=hi, ratio=ratio, factor=factor, wrong=wrong)
 
 
 def check_value(space: ParameterSpace, name: str, value: float, *, role: Literal["measured", "fixed"]) -> None:
@@ -231,12 +265,9 @@ def check_value(space: ParameterSpace, name: str, value: float, *, role: Literal
         raise MeasurementError(f"{role} {name}={value:g}{unit_text(unit)} is impossible: it {why}; give a value in "
                                "SI units.")
     lo, hi = quantity_range(space, name)
-    text, typical = f"{role} {name}={value:g}{unit_text(unit)}", _or_nan(space, space.nominal, name)
-    if value > UNIT_SLIP * hi or 0 < value < lo / UNIT_SLIP:
-        ratio = value / (typical if typical > 0 else 0.5 * (lo + hi))
-        size = f"{_times(ratio)} times" if ratio > 1 else f"1/{_times(1 / ratio)} of"
-        raise MeasurementError(f"{text} is {size} the box's range {lo:.3g}-{hi:.3g}{unit_text(unit)}: the unit is "
-                               f"{unit_text(unit).strip() or '1 (none)'}{_slip_hint(unit, ratio)}.")
+    text, slip = f"{role} {name}={value:g}{unit_text(unit)}", unit_slip(space, name, value)
+    if slip is not None:
+        raise MeasurementError(f"{text} {slip.clause()}.")
     tol = 1e-9 * (hi - lo)
     if not lo - tol <= value <= hi + tol:
         params = depends_on(space, name)

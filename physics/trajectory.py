@@ -41,6 +41,9 @@ TIMESTAMP_TOLERANCE = 0.25
 _UNIFORM = 1e-6
 #: Largest drift, as a fraction of Δ, that rounding the fitted rate to whole hertz may add to any tick.
 _ROUND_RATE = 0.01
+#: The first bytes of a netCDF file: classic (CDF-1, CDF-2, CDF-5) and netCDF-4 (HDF5).
+_NETCDF3 = (b"CDF\x01", b"CDF\x02", b"CDF\x05")
+_HDF5 = b"\x89HDF\r\n\x1a\n"
 
 
 def _variable(dims: tuple[str, ...], values: np.ndarray, units: str, long_name: str) -> tuple:
@@ -257,12 +260,30 @@ def save_trajectory(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
     return path
 
 
+def _is_netcdf(path: Path) -> bool:
+    """Whether the file starts as netCDF does: classic ``CDF`` 1, 2 or 5, or netCDF-4's HDF5 signature
+    (at byte 0, 512, 1024 or 2048, where HDF5 may put it after a user block)."""
+    with path.open("rb") as fh:
+        head = fh.read(2048 + len(_HDF5))
+    return head[:4] in _NETCDF3 or any(head[at:at + len(_HDF5)] == _HDF5 for at in (0, 512, 1024, 2048))
+
+
+def _not_netcdf(path: Path) -> TrajectoryFormatError:
+    """The error for a file that is no netCDF (a CSV, most often): the convert command that makes one."""
+    out = path.with_suffix(".nc") if path.suffix != ".nc" else path.with_name(f"{path.stem}-converted.nc")
+    return TrajectoryFormatError(f"{path} is not a netCDF trajectory; convert it first: tensegrid convert {path} "
+                                 f"{out} --units m|cm|mm (see docs/data-format.md).")
+
+
 def load_trajectory(path: str | os.PathLike[str]) -> xr.Dataset:
     """Read a trajectory netCDF file, put it on its regular clock (:func:`regular_clock`) and validate it;
-    explain what is wrong with a bad file. Times are read as the numbers stored (no CF date decoding)."""
+    explain what is wrong with a bad file (one that is no netCDF at all: how to convert it). Times are
+    read as the numbers stored (no CF date decoding)."""
     path = Path(path)
     if not path.exists():
         raise TrajectoryFormatError(f"Trajectory file {str(path)!r} does not exist.")
+    if path.is_file() and not _is_netcdf(path):
+        raise _not_netcdf(path)
     try:
         with xr.open_dataset(path, decode_times=False, decode_timedelta=False) as ds:
             ds = ds.load()

@@ -58,8 +58,12 @@ def test_loading_bad_files(tmp_path):
         load_trajectory(tmp_path / "nope.nc")
     junk = tmp_path / "junk.nc"
     junk.write_text("not a netcdf file")
-    with pytest.raises(TrajectoryFormatError, match="Cannot read"):
+    with pytest.raises(TrajectoryFormatError, match="is not a netCDF trajectory; convert it first: tensegrid convert"):
         load_trajectory(junk)
+    truncated = tmp_path / "truncated.nc"
+    truncated.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\x00" * 8)         # a netCDF-4 signature, then nothing
+    with pytest.raises(TrajectoryFormatError, match="Cannot read"):
+        load_trajectory(truncated)
     bad = _small().drop_vars("nodes")
     bad.to_netcdf(tmp_path / "bad.nc")
     with pytest.raises(TrajectoryFormatError, match=r"bad.nc: missing variable 'nodes'"):
