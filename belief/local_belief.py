@@ -10,13 +10,16 @@ tens of posterior widths across in rod_length. So the identification continues l
        quadratic approximation there (one regularized Newton step, with the measurements)
     2  the likelihood's scale σ² from r and J (belief.scale: block sandwich, adequacy against the
        noise floor the data show, the model-error floor only where the model falls short)
-    3  the Fisher information F = JᵀJ/σ² in the unit box; its eigen-directions v_k (unit vectors)
-       with eigenvalue λ_k, each checked against E itself: E at the centre and ± span posterior
-       sds along every pinned direction (one batch, :func:`flatness`); where E rises less than
-       the quadratic approximation says, λ_k shrinks to the curvature E shows. The uniform prior
-       over the box spreads along v_k over the chord 1/max_j |v_kj| through the box's centre,
-       variance 1/(12 max_j v_kj²), so its precision there is π_k = 12 max_j v_kj², and a
-       direction is pinned by the data when λ_k > π_k. The ``dim`` most pinned span the grid:
+    3  the Fisher information F = JᵀJ/σ² in the unit box, its pinned part measured by E itself
+       (belief.curvature: L at ± ``probe_sds`` posterior sds along, and between, the pinned
+       directions, one batch; where E rises less than F says, F shrinks to what E shows). Its
+       eigen-directions v_k (unit vectors) with eigenvalue λ_k: the uniform prior over the box
+       spreads along v_k over the chord 1/max_j |v_kj| through the box's centre, variance
+       1/(12 max_j v_kj²), so its precision there is π_k = 12 max_j v_kj², and a direction is
+       pinned by the data when λ_k > π_k. Every parameter whose interval is under half the box is
+       then profiled (belief.profile): where E, the others re-fitted, rises less at the interval's
+       ends than the level asks, F widens to the profile's width. The ``dim``
+       most pinned span the grid:
        w_k = v_k / sqrt(λ_k + π_k), one posterior sd (embeddings.LocalSubspace),
        ``points_per_dim`` points on [−span, span] each
     4  Algorithm 1 (GP + EI, belief.search) on that grid for ``budget`` evaluations (at most every
@@ -26,7 +29,8 @@ tens of posterior widths across in rod_length. So the identification continues l
        covariance Σ_⊥ = Σ_{k > dim} v_k v_kᵀ / (λ_k + π_k), truncated to the box
        (belief.spread.ComplementSpread): a direction the data do not see (λ_k ≪ π_k) keeps the
        box's spread along it, its prior (treating the prior's precision as diagonal in F's
-       eigen-directions)
+       eigen-directions), and the grid's centre moves along these directions to their posterior
+       mean, towards the box's middle by the prior's share of the precision (:func:`towards_prior`)
     6  marginals, intervals and ``Belief.sample`` from that P; verdicts (belief.verdicts): the
        narrowing against the box's prior, evaluated support, verified mass and the at-bound rule;
        what the data pin, named (belief.identifiability, from the same F), in the Belief's attrs.
@@ -49,11 +53,13 @@ import numpy as np
 from belief.assess import LocalFinish, local_finish
 from belief.belief import Belief
 from belief.bounds import at_bounds
+from belief.curvature import PRIOR_PRECISION, prior_precision, secant_information
 from belief.errors import BeliefError
 from belief.grid import Grid
 from belief.identifiability import identifiability
 from belief.least_squares import DEFAULT_FIT, FitConfig
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
+from belief.profile import DEFAULT_PROFILE, ProfileConfig, profile_widths
 from belief.proposers import BOProposer, SobolDesign, WarmStart, fit_surrogate
 from belief.result import IdentificationResult
 from belief.scale import Scale, ScaleConfig, calibrated_scale
@@ -65,23 +71,23 @@ from embeddings.local import LocalSubspace
 from physics.measurements import MeasurementPrior
 from physics.objective import Objective
 
-__all__ = ["LocalConfig", "DEFAULT_LOCAL", "Directions", "NoLocalStage", "pinned_directions", "flatness",
-           "best_local_fit", "local_stage"]
+__all__ = ["LocalConfig", "DEFAULT_LOCAL", "Directions", "NoLocalStage", "fisher_information", "directions_of",
+           "pinned_directions", "towards_prior", "best_local_fit", "local_stage"]
 
 
 class NoLocalStage(BeliefError):
     """The local stage cannot run here (its message says why); the global belief stands."""
 
 
-#: precision of the uniform prior over the unit interval (its variance is 1/12)
-PRIOR_PRECISION = 12.0
 
 
 @dataclass(frozen=True)
 class LocalConfig:
     """dim: most pinned directions the grid spans; points_per_dim, span: the grid (cells ``2 span /
     (points_per_dim − 1)`` sds apart); budget: Algorithm 1's evaluations on it; starts: local fits
-    from the best distinct evaluations; fit: each fit; scale: σ² (belief.scale)."""
+    from the best distinct evaluations; fit: each fit; scale: σ² (belief.scale); probe_sds: how far
+    out E's curvature is measured (belief.curvature); profile: the profile-likelihood check of every
+    narrow marginal (belief.profile), None to skip it."""
 
     dim: int = 4
     points_per_dim: int = 7
@@ -90,6 +96,8 @@ class LocalConfig:
     starts: int = 2
     fit: FitConfig = DEFAULT_FIT
     scale: ScaleConfig = field(default_factory=ScaleConfig)
+    probe_sds: float = 2.0
+    profile: ProfileConfig | None = DEFAULT_PROFILE
 
     def __post_init__(self) -> None:
         ints = {"dim": self.dim, "points_per_dim": self.points_per_dim, "budget": self.budget, "starts": self.starts}
@@ -99,8 +107,9 @@ class LocalConfig:
         if self.dim > 6 or self.points_per_dim < 3 or self.points_per_dim ** self.dim > 200_000:
             raise BeliefError(f"LocalConfig: a grid of {self.points_per_dim}^{self.dim} cells is too large or too "
                               "coarse; use dim <= 6, points_per_dim >= 3 and at most 200 000 cells.")
-        if not (np.isfinite(self.span) and self.span > 0):
-            raise BeliefError(f"LocalConfig.span must be a positive number of sds, got {self.span!r}.")
+        for label, sds in {"span": self.span, "probe_sds": self.probe_sds}.items():
+            if not (np.isfinite(sds) and sds > 0):
+                raise BeliefError(f"LocalConfig.{label} must be a positive number of sds, got {sds!r}.")
 
 
 #: the default local stage (frozen, so one instance serves as every default argument)
@@ -119,27 +128,35 @@ class Directions:
     basis: np.ndarray
     complement: np.ndarray
 
+    def covariance(self) -> np.ndarray:
+        """The local posterior's covariance (D x D, unit box): Σ_k v_k v_kᵀ / (λ_k + π_k)."""
+        return (self.vectors / (self.values + prior_precision(self.vectors))) @ self.vectors.T
 
-def pinned_directions(jacobian: np.ndarray, noise_var: float, *, dim: int,
-                      prior_rows: np.ndarray | None = None, curvature: np.ndarray | None = None) -> Directions:
-    """Steps 3 and 5 of the module docstring from J (K x D, unit box) and σ²; ``prior_rows`` G (M x D,
-    standardized, unit box: what the user measured, physics.measurements) add GᵀG to F; ``curvature``
-    (D,) in (0, 1] scales each eigenvalue (descending order) to the curvature E shows along it
-    (:func:`flatness`)."""
+
+def fisher_information(jacobian: np.ndarray, noise_var: float, prior_rows: np.ndarray | None = None) -> np.ndarray:
+    """F = JᵀJ/σ² + GᵀG (D x D, unit box) from J (K x D) and, when given, the standardized rows G
+    (M x D) of what the user measured (physics.measurements)."""
     J = np.nan_to_num(np.asarray(jacobian, dtype=float))
     F = J.T @ J / float(noise_var)
     if prior_rows is not None and np.size(prior_rows):
         G = np.asarray(prior_rows, dtype=float)
         F = F + G.T @ G
+    return F
+
+
+def directions_of(information: np.ndarray, *, dim: int, stretch: np.ndarray | None = None) -> Directions:
+    """Steps 3 and 5 of the module docstring from an information matrix F (D x D, unit box);
+    ``stretch`` (D,) ≥ 1 widens parameter j by s_j, F → S⁻¹ F S⁻¹ (the profiles of belief.profile),
+    before the prior's precision is added."""
+    F = 0.5 * (information + information.T)
+    if stretch is not None:
+        inverse = 1.0 / np.maximum(np.asarray(stretch, dtype=float), 1.0)
+        F = F * np.outer(inverse, inverse)
     values, vectors = np.linalg.eigh(F)
     order = np.argsort(values)[::-1]
     values, vectors = np.clip(values[order], 0.0, None), vectors[:, order]
     vectors = vectors * np.sign(vectors[np.argmax(np.abs(vectors), axis=0), np.arange(vectors.shape[1])])
-    if curvature is not None:
-        values = values * np.clip(np.asarray(curvature, dtype=float), 1e-6, 1.0)
-        order = np.argsort(values)[::-1]
-        values, vectors = values[order], vectors[:, order]
-    prior = PRIOR_PRECISION * np.max(vectors ** 2, axis=0)
+    prior = prior_precision(vectors)
     d = int(min(dim, np.sum(values > prior)))
     post = 1.0 / (values + prior)
     basis = vectors[:, :d] * np.sqrt(post[:d])
@@ -147,37 +164,10 @@ def pinned_directions(jacobian: np.ndarray, noise_var: float, *, dim: int,
     return Directions(values, vectors, d, basis, complement)
 
 
-def flatness(objective: Objective, centre: np.ndarray, directions: Directions, noise_var: float, *,
-             reach: float = 3.0) -> tuple[np.ndarray, int]:
-    """(ρ (D,), evaluations): along each pinned direction k (λ_k > π_k), E at the centre û (unit box)
-    and at û ± reach s_k v_k (s_k = 1/sqrt(λ_k + π_k), clipped to the box) in one batch; the
-    quadratic through the three, E/(2σ²) = c + g t + ½ a t² (t in s_k), against the Laplace
-    approximation's a = λ_k/(λ_k + π_k) gives ρ_k = min(1, a_seen / a). A valley that curves, or
-    flattens, beyond the fit's own neighbourhood makes E rise less than J says: ρ_k < 1 widens that
-    direction to what E shows (never narrower than the Laplace width). ρ = 1 elsewhere, and where a
-    probe fails."""
-    values, vectors = directions.values, directions.vectors
-    prior = PRIOR_PRECISION * np.max(vectors ** 2, axis=0)
-    pinned = np.flatnonzero(values > prior)
-    rho = np.ones(values.size)
-    if pinned.size == 0:
-        return rho, 0
-    sd = 1.0 / np.sqrt(values[pinned] + prior[pinned])
-    steps = np.concatenate([sd, -sd]) * reach
-    axes = np.concatenate([vectors[:, pinned], vectors[:, pinned]], axis=1).T
-    probes = np.clip(centre[None] + steps[:, None] * axes, 0.0, 1.0)
-    space = objective.space
-    batch = objective.evaluate_batch(space.lower + (space.upper - space.lower) * np.vstack([centre[None], probes]))
-    errors = np.asarray(batch.errors, dtype=float) / (2.0 * noise_var)
-    t = np.einsum("kd,kd->k", probes - centre[None], axes) / np.concatenate([sd, sd])
-    for i, k in enumerate(pinned):
-        up, down = errors[1 + i] - errors[0], errors[1 + pinned.size + i] - errors[0]
-        tp, tm = t[i], t[pinned.size + i]
-        if not (np.isfinite(up) and np.isfinite(down)) or tp <= 0 or tm >= 0:
-            continue
-        seen = 2.0 * (up / tp - down / tm) / (tp - tm)           # a of the quadratic through the three points
-        rho[k] = float(np.clip(seen / (values[k] / (values[k] + prior[k])), 1e-6, 1.0))
-    return rho, int(1 + probes.shape[0])
+def pinned_directions(jacobian: np.ndarray, noise_var: float, *, dim: int,
+                      prior_rows: np.ndarray | None = None) -> Directions:
+    """:func:`directions_of` the Gauss-Newton information :func:`fisher_information`."""
+    return directions_of(fisher_information(jacobian, noise_var, prior_rows), dim=dim)
 
 
 def best_local_fit(objective: Objective, result: IdentificationResult, config: LocalConfig
@@ -203,6 +193,18 @@ def _times_prior(p: np.ndarray, log_prior: np.ndarray) -> np.ndarray:
     out = np.where(p > 0, np.log(np.maximum(p, 1e-300)) + log_prior, -np.inf)
     out = np.exp(out - out.max())
     return out / out.sum()
+
+
+def towards_prior(centre: np.ndarray, directions: Directions) -> np.ndarray:
+    """The complement's posterior mean (unit box): along each direction the grid does not span, the
+    centre û moves towards the box's middle m = ½ by the prior's share of the precision,
+    û + Σ_{k > grid} v_k π_k/(λ_k + π_k) v_kᵀ(m − û). The Gaussian that stands in for the uniform prior
+    has the box's mean as well as its spread: a direction the data do not see keeps the box, not a
+    box-wide normal centred wherever the fit happened to stop."""
+    V = directions.vectors[:, directions.grid:]
+    prior = prior_precision(V)
+    share = prior / (directions.values[directions.grid:] + prior)
+    return np.clip(centre + V @ (share * (V.T @ (0.5 - centre))), 0.0, 1.0)
 
 
 def _journal(journal: str | os.PathLike[str] | None) -> str | None:
@@ -243,15 +245,19 @@ def local_stage(objective: Objective, result: IdentificationResult, *, seed: int
     scale = calibrated_scale(fit.residuals, fit.step.jacobian, noise_floor=objective.noise_floor, config=config.scale,
                              least=1e-12 * float(np.nanmedian(errors)))
     rows = prior.jacobian(fit.step.theta) if prior is not None and prior.measurements else None
-    directions = pinned_directions(fit.step.jacobian, scale.noise_var, dim=config.dim, prior_rows=rows)
     space = objective.space
     centre = _centre(fit, scale.noise_var, prior, space.lower)
-    rho, probes = flatness(objective, centre, directions, scale.noise_var, reach=config.span)
-    directions = pinned_directions(fit.step.jacobian, scale.noise_var, dim=config.dim, prior_rows=rows,
-                                   curvature=rho)
+    curvature = secant_information(objective, centre, fisher_information(fit.step.jacobian, scale.noise_var, rows),
+                                   scale.noise_var, reach=config.probe_sds, prior=prior)
+    directions = directions_of(curvature.information, dim=config.dim)
+    profiles = None
+    if config.profile is not None and directions.grid > 0:
+        profiles = profile_widths(objective, centre, fit.step.jacobian, directions.covariance(), scale.noise_var,
+                                  level=level, prior=prior, config=config.profile)
+        directions = directions_of(curvature.information, dim=config.dim, stretch=profiles.stretch)
     if directions.grid == 0:
         raise NoLocalStage("the data pin no direction beyond the box's own spread")
-    decoder = LocalSubspace(space, centre, directions.basis, span=config.span)
+    decoder = LocalSubspace(space, towards_prior(centre, directions), directions.basis, span=config.span)
     grid = Grid.for_decoder(decoder, points_per_dim=config.points_per_dim)
     middle = int(np.argmin(np.sum(np.asarray(grid.points) ** 2, axis=1)))       # z = 0, evaluated first
     local = search(objective, decoder, grid, budget=min(config.budget, grid.size), seed=seed, journal=_journal(journal),
@@ -270,7 +276,8 @@ def local_stage(objective: Objective, result: IdentificationResult, *, seed: int
     config_out = dict(result.config)
     config_out["local_stage"] = {"evaluations": int(local.n_evaluations), "fit_evaluations": int(sum(
         s.get("evaluations", 0) for s in starts)), "directions": directions.grid, "best_error": float(best_error),
-        "probe_evaluations": probes, "flatness": [float(v) for v in rho]}
+        "probe_evaluations": curvature.evaluations, "curvature": [float(v) for v in curvature.ratio],
+        "profile": None if profiles is None else profiles.as_dict()}
     return IdentificationResult(belief=belief, history=result.history, best_theta=best_theta, best_error=best_error,
                                 config=config_out)
 

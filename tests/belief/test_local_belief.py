@@ -6,7 +6,8 @@ import pytest
 
 from belief import Belief, identify
 from belief.errors import BeliefError
-from belief.local_belief import LocalConfig, flatness, pinned_directions
+from belief.curvature import secant_information
+from belief.local_belief import LocalConfig, fisher_information, pinned_directions, towards_prior
 from belief.spread import ComplementSpread
 from physics import ParameterSpace
 from physics.measurements import Measurement, MeasurementPrior
@@ -156,7 +157,8 @@ def test_pinned_directions_follow_the_information() -> None:
 
 
 @pytest.mark.parametrize("kwargs, match", [({"dim": 0}, "dim"), ({"dim": 7}, "too large"),
-                                           ({"span": -1.0}, "span"), ({"starts": True}, "starts")])
+                                           ({"span": -1.0}, "span"), ({"starts": True}, "starts"),
+                                           ({"probe_sds": 0.0}, "probe_sds")])
 def test_bad_settings_are_refused(kwargs: dict, match: str) -> None:
     with pytest.raises(BeliefError, match=match):
         LocalConfig(**kwargs)
@@ -177,18 +179,34 @@ class Saturating(Linear):
         return [part[:, None] for part in np.array_split(r, 4)]
 
 
-def test_flatness_widens_a_direction_where_e_rises_less_than_its_jacobian_says() -> None:
+def test_e_measures_its_own_curvature_and_only_ever_lowers_f() -> None:
+    """On a linear model the measured information is F; where the data saturate beyond c (one sd of
+    θ_0), E rises less than F says and θ_0's information drops; it is never above F (Loewner order)."""
     rng = np.random.default_rng(11)
     A = rng.normal(size=(400, 3))
+    A[:, 1] += 0.7 * A[:, 0]                                    # θ_0 trades off with θ_1
     theta0 = np.array([0.5, 0.5, 0.5])
     y = A @ theta0 + rng.normal(0, SIGMA, 400)
-    sd0 = _exact_std(A)[0]
-    for obj, expect_flat in ((Linear(A, y), False), (Saturating(A, y, theta0, c=sd0), True)):
-        d = pinned_directions(np.vstack([-A]), SIGMA ** 2, dim=3)
-        rho, spent = flatness(obj, theta0, d, SIGMA ** 2, reach=3.0)
-        assert spent == 1 + 2 * 3                                    # the centre and ± along 3 directions
-        loads = np.abs(d.vectors[0])                                 # θ_0's loading on each direction
-        if expect_flat:
-            assert np.min(rho[loads > 0.5]) < 0.5, rho
-        else:
-            assert np.all(rho > 0.8), rho
+    F = fisher_information(-A, SIGMA ** 2)
+    linear = secant_information(Linear(A, y), theta0, F, SIGMA ** 2, reach=2.0)
+    assert linear.evaluations == 1 + 2 * 3 + 3
+    np.testing.assert_allclose(linear.information, F, rtol=1e-6)
+    flat = secant_information(Saturating(A, y, theta0, c=_exact_std(A)[0]), theta0, F, SIGMA ** 2, reach=2.0)
+    assert flat.ratio.min() < 0.5
+    assert np.linalg.eigvalsh(F - flat.information).min() > -1e-6 * np.abs(F).max()
+    cov, cov_flat = np.linalg.inv(F + 12 * np.eye(3)), np.linalg.inv(flat.information + 12 * np.eye(3))
+    assert cov_flat[0, 0] > 1.5 * cov[0, 0] and cov_flat[2, 2] == pytest.approx(cov[2, 2], rel=0.05)
+
+
+def test_an_unseen_direction_is_centred_on_the_box_not_on_where_the_fit_stopped() -> None:
+    d = pinned_directions(np.diag([100.0, 0.1]), 1.0, dim=4)
+    assert d.grid == 1
+    moved = towards_prior(np.array([0.3, 0.95]), d)
+    assert moved[0] == pytest.approx(0.3) and moved[1] == pytest.approx(0.5, abs=1e-3)
+
+
+def test_the_profile_leaves_a_quadratic_e_at_its_laplace_width() -> None:
+    obj, _ = _problem(11)
+    result = identify(obj, budget=12, seed=0, preset="bo-local", progress=False)
+    profile = result.config["local_stage"]["profile"]
+    assert np.all(np.array(profile["stretch"]) < 1.15) and profile["evaluations"] > 1 + 2 * 3
