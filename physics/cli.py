@@ -11,7 +11,6 @@ import re
 import sys
 from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, entry_points, version
-from pathlib import Path
 from typing import Any
 
 from physics.errors import TensegridError
@@ -55,76 +54,11 @@ def _version() -> str:
         return "(not installed: no package metadata)"
 
 
-def _parse_assignments(items: Sequence[str]) -> dict[str, float]:
-    out = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise argparse.ArgumentTypeError(f"--theta expects NAME=VALUE, got {item!r}")
-        try:
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"--theta {name}: {value!r} is not a number") from None
-    return out
-
-
-def _effects(values: dict[str, float]) -> list:
-    """The effects whose parameters ``values`` names (physics.effects.EFFECT_TYPES), in catalog order."""
-    from physics.effects import EFFECT_TYPES
-    from physics.errors import ParameterError
-
-    owners = {p.name: cls for cls in EFFECT_TYPES.values() for p in cls().parameters()}
-    unknown = sorted(set(values) - set(owners))
-    if unknown:
-        raise ParameterError(f"--effect: unknown effect parameter(s) {unknown}; known: {sorted(owners)}.")
-    wanted = {owners[name] for name in values}
-    return [cls() for cls in EFFECT_TYPES.values() if cls in wanted]
-
-
-def _run_simulate(args: argparse.Namespace) -> int:
-    from physics.controllers import FlopController, HoldController
-    from physics.effects import model_space
-    from physics.plotting import plot_trajectory
-    from physics.simulation import simulate
-    from physics.trajectory import save_trajectory
-
-    effects = _effects(_parse_assignments(args.effect))
-    space = model_space(effects)
-    theta = space.as_array({**_parse_assignments(args.theta), **_parse_assignments(args.effect)}, check_bounds=False)
-    controller = (HoldController() if args.flops == 0 else
-                  FlopController(args.heading, flops=args.flops, period=args.period))
-    duration = args.duration if args.duration is not None else max(1.0, args.flops * args.period)
-    ds = simulate(theta, controller=controller, duration=duration, sample_rate=args.rate,
-                  noise=args.noise, seed=args.seed, effects=effects)
-    out = Path(args.out)
-    nc = save_trajectory(ds, out / "trajectory.nc")
-    png = plot_trajectory(ds, out / "trajectory.png")
-    com = ds["nodes"].mean("node").values
-    moved = com[-1, :2] - com[0, :2]
-    print(f"simulated {duration:.1f} s ({len(ds.time)} samples at {args.rate:g} Hz); "
-          f"centre of mass moved ({moved[0]:+.3f}, {moved[1]:+.3f}) m; peak tension {float(ds.tension.max()):.0f} N")
-    print(f"wrote {nc}\nwrote {png}")
-    return 0
-
-
 def register_simulate(subparsers: argparse._SubParsersAction[Any]) -> None:
-    """Add ``tensegrid simulate``."""
-    p = subparsers.add_parser("simulate", help="simulate the SUPERball flopping; write trajectory.nc and a picture",
-                              description="Simulate the T6 at θ (nominal unless --theta) under the flop controller.")
-    p.add_argument("--out", default="out/simulate", help="output folder (default: out/simulate)")
-    p.add_argument("--theta", nargs="*", default=[], metavar="NAME=VALUE",
-                   help="parameter values in SI, e.g. damping=180 pretension=140")
-    p.add_argument("--effect", nargs="*", default=[], metavar="NAME=VALUE",
-                   help="switch on effects by their parameters, e.g. actuator_delay=0.08 (physics.effects; "
-                        "the recording does not name them)")
-    p.add_argument("--heading", type=float, default=0.0, help="goal direction in radians from +x (default 0)")
-    p.add_argument("--flops", type=int, default=1, help="number of flops (0 = just rest; default 1)")
-    p.add_argument("--period", type=float, default=3.0, help="seconds per flop (default 3)")
-    p.add_argument("--duration", type=float, default=None, help="seconds to record (default flops x period)")
-    p.add_argument("--rate", type=float, default=100.0, help="sampling rate in Hz (default 100)")
-    p.add_argument("--noise", type=float, default=0.0, help="std of position noise in m (default 0)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
-    p.set_defaults(func=_run_simulate)
+    """Add ``tensegrid simulate`` (physics.cli_simulate)."""
+    from physics.cli_simulate import register_simulate as register
+
+    register(subparsers)
 
 
 def _register_commands(sub: argparse._SubParsersAction[Any], command: str | None) -> None:

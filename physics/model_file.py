@@ -8,19 +8,21 @@ parameters inside their own boxes (:class:`~physics.effects.Effect.parameters`):
     {"effects": [{"effect": "tension_limited_actuator"}, {"effect": "cable_anchors"}],
      "theta": {"rod_length": 1.7, ..., "anchor_offset": 0.061}}
 
-``theta`` is a record of where the writer ended (identify does not read it). ``effects_by_name``
+``theta`` is a record of where the writer ended (identify does not read it; ``tensegrid simulate
+--model`` starts from it, :func:`read_model_theta`). ``effects_by_name``
 turns ``--effects a b`` into the same list.
 """
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Mapping, Sequence
 
 from physics.effects import EFFECT_TYPES, Effect, effect_from_config, model_space
 from physics.errors import ParameterError
 
-__all__ = ["write_model_file", "read_model_file", "effects_by_name"]
+__all__ = ["write_model_file", "read_model_file", "read_model_theta", "effects_by_name"]
 
 
 def write_model_file(path: str | os.PathLike[str], effects: Sequence[Effect],
@@ -31,17 +33,22 @@ def write_model_file(path: str | os.PathLike[str], effects: Sequence[Effect],
         json.dump(record, fh, indent=1)
 
 
-def read_model_file(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
-    """The effects of a model file; ParameterError names the file and what is wrong with it."""
+def _read_record(path: str | os.PathLike[str]) -> object:
+    """The JSON of a model file; ParameterError when it cannot be read or is no JSON."""
     try:
         with open(path) as fh:
-            record = json.load(fh)
+            return json.load(fh)
     except OSError as exc:
         raise ParameterError(f"cannot read the model file {os.fspath(path)!r}: {exc.strerror}; pass the "
                              "model.json that tensegrid diagnose wrote.") from None
     except json.JSONDecodeError as exc:
         raise ParameterError(f"the model file {os.fspath(path)!r} is not JSON ({exc.msg}, line {exc.lineno}); pass "
                              "the model.json that tensegrid diagnose wrote.") from None
+
+
+def read_model_file(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
+    """The effects of a model file; ParameterError names the file and what is wrong with it."""
+    record = _read_record(path)
     configs = record.get("effects") if isinstance(record, dict) else None
     if not isinstance(configs, list) or not all(isinstance(c, dict) for c in configs):
         raise ParameterError(f"the model file {os.fspath(path)!r} needs a list 'effects' of effect configurations "
@@ -49,6 +56,20 @@ def read_model_file(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
     effects = tuple(effect_from_config(c) for c in configs)
     model_space(effects)        # an effect listed twice, or parameters that collide, are refused here
     return effects
+
+
+def read_model_theta(path: str | os.PathLike[str]) -> dict[str, float]:
+    """The θ a model file records by name [SI] (where its writer ended), {} when it records none;
+    ParameterError for a ``theta`` that is not a mapping of names to finite numbers."""
+    record = _read_record(path)
+    theta = record.get("theta") if isinstance(record, dict) else None
+    if theta is None:
+        return {}
+    if not isinstance(theta, dict) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                              and math.isfinite(v) for v in theta.values()):
+        raise ParameterError(f"the model file {os.fspath(path)!r} needs 'theta' to map parameter names to finite "
+                             'numbers (e.g. {"theta": {"rod_length": 1.7}}), or null.')
+    return {str(name): float(value) for name, value in theta.items()}
 
 
 def effects_by_name(names: Sequence[str]) -> tuple[Effect, ...]:

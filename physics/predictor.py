@@ -36,8 +36,8 @@ from physics.geometry import CABLE_NODES
 from physics.state_estimation import DEFAULT_STATES, StateEstimator
 from physics.tensegrity import ModelOptions, T6Model
 
-__all__ = ["ObservedStates", "LENGTH_REFERENCES", "reconstruct_actuators", "actuator_states", "predict",
-           "physics_step", "step_options", "dt_option"]
+__all__ = ["ObservedStates", "LENGTH_REFERENCES", "reconstruct_actuators", "actuator_states", "set_observed_state",
+           "predict", "physics_step", "step_options", "dt_option"]
 
 #: What ``controls`` and ``rest_length`` mean: encoder readings zeroed at the nominal design, or true rest lengths.
 LENGTH_REFERENCES = ("encoder", "true")
@@ -189,15 +189,11 @@ def actuator_states(obs: ObservedStates, model: T6Model, source: str = "auto") -
     return reconstruct_actuators(obs, model)
 
 
-def predict(model: T6Model, obs: ObservedStates, start: int, steps: int,
-            rest: np.ndarray, speed: np.ndarray) -> np.ndarray:
-    """Predicted node positions (steps x 12 x 3) at samples start+1 .. start+steps.
-
-    The simulator is set to the observed state at ``start`` (through the model's inverse
-    observation transform), commands still in the delay line are loaded, and the recorded controls
-    are replayed (held per interval). Raises PhysicsError if the simulation diverges.
-    """
-    substeps = int(round(obs.interval / model.options.dt))
+def set_observed_state(model: T6Model, obs: ObservedStates, start: int, rest: np.ndarray, speed: np.ndarray) -> None:
+    """Put the simulator in the observed state at sample ``start``: rods at the state's nodes (through
+    the model's inverse observation transform) and velocities, actuators at ``rest`` and ``speed``
+    (T x 24, :func:`actuator_states`), the clock at the sample's time, and the commands sent in the
+    last τ seconds loaded into the delay line (physics.effects.ActuatorDelay)."""
     model.set_nodes(model.unobserve(obs.state_nodes[start]), obs.velocities[start])
     model.rest_length = rest[start].copy()
     model.motor_speed = speed[start].copy()
@@ -207,6 +203,17 @@ def predict(model: T6Model, obs: ObservedStates, start: int, steps: int,
         past = slice(first, start)
         ok = np.isfinite(obs.controls[past]).all(axis=1)
         model.prime_commands(obs.times[past][ok], obs.controls[past][ok], obs.reference)
+
+
+def predict(model: T6Model, obs: ObservedStates, start: int, steps: int,
+            rest: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """Predicted node positions (steps x 12 x 3) at samples start+1 .. start+steps.
+
+    The simulator is set to the observed state at ``start`` (:func:`set_observed_state`) and the
+    recorded controls are replayed (held per interval). Raises PhysicsError if the simulation diverges.
+    """
+    substeps = int(round(obs.interval / model.options.dt))
+    set_observed_state(model, obs, start, rest, speed)
     out = np.empty((steps, 12, 3))
     for k in range(steps):
         model.step(obs.controls[start + k], n=substeps, reference=obs.reference)
