@@ -12,10 +12,11 @@
        segment's errors, with that segment's own σ²; disjoint narrow intervals = conflict
     5  marginals of P and a verdict per parameter (belief.verdicts.decide)
     6  if any parameter is (weakly) identified: the Jacobian over all parameters at the best
-       evaluated θ and one Gauss-Newton step (D + 4 evaluations); a much better fit outside a
-       parameter's interval, or a local std wider than P's, withdraws its verdict (the "local
-       refit" and "local width" rules of belief.verdicts); the local std also spreads the best
-       cell's mass in the marginals (belief.spread), so a P on one cell still gets the data's width
+       evaluated θ and one Gauss-Newton step (D + 4 evaluations, D + 3 when step 1 evaluated the
+       residuals there); a much better fit outside a parameter's interval, or a local std wider
+       than P's, withdraws its verdict (the "local refit" and "local width" rules of
+       belief.verdicts); the local std also spreads the best cell's mass in the marginals
+       (belief.spread), so a P on one cell still gets the data's width
     7  parameters the data narrow whose fitted θ (the step's θ′, else the best evaluated θ) sits at
        a bound of the box are not identified and listed in attrs["at_bounds"] (the "at bound"
        rule, belief.bounds)
@@ -26,6 +27,13 @@ segment skip step 4. Both are recorded in the Belief's attrs, as are σ², K, K_
 (``error_floor``), P of the best evaluated cell (``best_cell_mass``) and, when P cannot be trusted
 (an interval that excludes the best evaluation, little verified mass), why (``trust``,
 belief.verdicts.trust_note; the summary prints it).
+
+Evaluations: the assessment evaluates E after the search (step 1's residuals, step 6's
+Gauss-Newton step, the "calibrated" rule's fit); attrs["evaluations"] counts them. A run that ends
+with a Gauss-Newton step (``finish_step``, belief.presets) takes it here from the best evaluation,
+so that it shares those evaluations: the calibrated fit when it ran, else step 6's step when it
+ran, else one step of its own from step 1's residuals; attrs["finishing_step"] records it and
+:func:`finishing_cost` bounds all of them, which is what such a run's budget keeps for them.
 """
 from __future__ import annotations
 
@@ -39,10 +47,19 @@ import xarray as xr
 
 from belief.belief import Belief
 from belief.bounds import AtBound, at_bounds
+from belief.counting import CountingObjective
 from belief.errors import BeliefError, BudgetWarning
 from belief.grid import CandidateSet
 from belief.journal import Record
-from belief.least_squares import DEFAULT_FIT, FitConfig, LocalStep, gauss_newton_fit, gauss_newton_step
+from belief.least_squares import (
+    DEFAULT_FIT,
+    DEFAULT_STEP,
+    FitConfig,
+    LocalStep,
+    StepConfig,
+    gauss_newton_fit,
+    gauss_newton_step,
+)
 from belief.noise import iid_noise_var, noise_var_from_residuals, segment_discrepancy
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.scale import ScaleConfig, calibrated_scale
@@ -65,19 +82,22 @@ from physics.errors import NoResidualsError, PhysicsError
 from physics.objective import Objective
 from physics.parameters import ParameterSpace
 
-__all__ = ["NoiseLevel", "noise_level", "assess"]
+__all__ = ["NoiseLevel", "noise_level", "assess", "fits_to_convergence", "finishing_cost", "step_record"]
 
 _KNOWN = ("given", "known by the objective")
 
 
 @dataclass(frozen=True)
 class NoiseLevel:
-    """σ² of the whole E and of each segment (None in minimizer mode), with how it was set."""
+    """σ² of the whole E and of each segment (None in minimizer mode), with how it was set;
+    ``best_residuals``: the residuals at the best evaluated θ when the rule evaluated them (S
+    arrays), which the Gauss-Newton steps from there reuse instead of evaluating them again."""
 
     total: float | None
     segments: tuple[float, ...] = ()
     rule: str = ""
     info: dict[str, Any] = field(default_factory=dict)
+    best_residuals: tuple[np.ndarray, ...] | None = field(default=None, compare=False, repr=False)
 
     @property
     def known(self) -> bool:
@@ -120,14 +140,15 @@ def noise_level(objective: Objective, config: PosteriorConfig, errors: np.ndarra
         why = "iid" if config.noise_rule == "iid" else "iid (the objective gives no residuals per segment)"
         total = iid_noise_var(errors, n_observations=K, dim=dim)
         segs = tuple(iid_noise_var(parts[:, s], n_observations=max(K // S, 1), dim=dim) for s in range(S))
-        return NoiseLevel(total, segs, why, {"n_observations": K})
+        start = tuple(res) if res is not None and len(res) == len(objective.segments) else None   # the steps'
+        return NoiseLevel(total, segs, why, {"n_observations": K}, start)
     d_seg = segment_discrepancy(parts)
     delta = max(config.discrepancy, d_seg)
     total, size = noise_var_from_residuals(errors, res, dim=dim, discrepancy=delta)
     segs = tuple(noise_var_from_residuals(parts[:, s], [res[s]], dim=dim, discrepancy=delta)[0] for s in range(S))
     return NoiseLevel(total, segs, "ess", {"n_observations": size.n, "n_effective": size.n_eff,
                                           "tau": list(size.tau), "coords": list(size.coords),
-                                          "discrepancy": delta, "segment_discrepancy": d_seg})
+                                          "discrepancy": delta, "segment_discrepancy": d_seg}, tuple(res))
 
 
 @dataclass(frozen=True)
@@ -171,23 +192,47 @@ def _segment_marginals(records: Sequence[Record], grid: CandidateSet, theta_cell
     return out
 
 
-def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], noise: NoiseLevel
+def fits_to_convergence(objective: Objective, config: PosteriorConfig | None) -> bool:
+    """Whether the assessment fits by Gauss-Newton to convergence (the "calibrated" noise rule with σ²
+    neither given nor known by the objective) rather than taking at most one step."""
+    return (config is not None and config.mode == "likelihood" and config.noise_var is None
+            and objective.noise_var is None and config.noise_rule == "calibrated")
+
+
+def finishing_cost(dim: int, step: StepConfig, *, converges: bool, fit: FitConfig = DEFAULT_FIT) -> int:
+    """The most evaluations of E an assessment with a finishing step (module docstring) spends in a D =
+    ``dim`` space: the fit's (``converges``, :func:`fits_to_convergence`), else one step's, whose
+    start is step 1's residuals."""
+    return fit.cost(dim) if converges else step.cost(dim)
+
+
+def step_record(objective: Objective, theta: np.ndarray | Sequence[float], config: StepConfig = DEFAULT_STEP, *,
+                start: Sequence[np.ndarray] | None = None) -> tuple[LocalStep | None, dict[str, Any]]:
+    """One Gauss-Newton step of all parameters from θ (belief.least_squares.gauss_newton_step; ``start``:
+    the residuals at θ when already evaluated) and its record: θ′, E(θ′), E(θ), evaluations, or why
+    it was not taken (no residuals; a diverged simulation is reported there, not hidden)."""
+    try:
+        step = gauss_newton_step(objective, np.asarray(theta, dtype=float), config, start=start)
+    except NoResidualsError:
+        return None, {"skipped": "the objective gives no residuals"}
+    except (BeliefError, PhysicsError) as exc:
+        return None, {"skipped": str(exc)}
+    return step, {"theta": [float(v) for v in step.theta], "error": step.error, "start_error": step.start_error,
+                  "evaluations": step.evaluations}
+
+
+def _local_fit(objective: Objective, best_theta: np.ndarray | Sequence[float], noise: NoiseLevel, config: StepConfig
                ) -> tuple[LocalStep | None, np.ndarray | None, dict[str, Any]]:
     """(step, local std (D,) or None, info) of one Gauss-Newton step of all parameters from the best
-    evaluated θ, for the "local refit" and "local width" rules (belief.verdicts) and the best
-    cell's spread (belief.spread).
+    evaluated θ (:func:`step_record`, from step 1's residuals when it evaluated them), for the "local
+    refit" and "local width" rules (belief.verdicts) and the best cell's spread (belief.spread).
 
     ``info`` goes to the Belief's attrs["local_fit"]: θ′, E(θ′), E(θ̂), evaluations and the local
-    std, or why the step was not taken (a diverged simulation is reported there, not hidden).
+    std, or why the step was not taken.
     """
-    try:
-        step = gauss_newton_step(objective, np.asarray(best_theta, dtype=float))
-    except NoResidualsError:
-        return None, None, {"skipped": "the objective gives no residuals"}
-    except (BeliefError, PhysicsError) as exc:
-        return None, None, {"skipped": str(exc)}
-    info: dict[str, Any] = {"theta": [float(v) for v in step.theta], "error": step.error,
-                            "start_error": step.start_error, "evaluations": step.evaluations}
+    step, info = step_record(objective, best_theta, config, start=noise.best_residuals)
+    if step is None:
+        return None, None, info
     std = None
     if noise.total is not None:
         std = step.laplace_std(noise.total)
@@ -219,11 +264,11 @@ class _Refinement:
 
 
 def _refine(objective: Objective, best: Record, noise: NoiseLevel, P: xr.DataArray, theta_cells: np.ndarray,
-            space: ParameterSpace, *, config: PosteriorConfig, vcfg: VerdictConfig, marg: xr.Dataset
-            ) -> _Refinement:
+            space: ParameterSpace, *, config: PosteriorConfig, vcfg: VerdictConfig, marg: xr.Dataset,
+            step_config: StepConfig) -> _Refinement:
     """Gauss-Newton at the best evaluation (:func:`_local_fit`): spread its cell by the local std
     s_j (ratio s_j / (cell width_j / √12)) and flag parameters the step moves beyond the marginals."""
-    step, std, local = _local_fit(objective, best.theta, noise)
+    step, std, local = _local_fit(objective, best.theta, noise, step_config)
     ratio, spread = None, None
     if std is not None and step is not None:
         ratio = std / np.maximum(step.width / np.sqrt(12.0), 1e-300)
@@ -250,19 +295,51 @@ def _centred(fit: LocalFinish, cell: int, noise_var: float, P: xr.DataArray, the
     return _Refinement(marg, info, {}, std / np.maximum(fit.step.width / np.sqrt(12.0), 1e-300), spread)
 
 
+def _refinement(objective: Objective, best: Record, fit: LocalFinish | None, fit_info: dict[str, Any],
+                noise: NoiseLevel, P: xr.DataArray, theta_cells: np.ndarray, space: ParameterSpace,
+                verdicts: Sequence[str], *, config: PosteriorConfig, vcfg: VerdictConfig, marg: xr.Dataset,
+                step_config: StepConfig) -> tuple[_Refinement, np.ndarray, bool]:
+    """Step 6: (refinement, the fitted θ, whether step 6 took its Gauss-Newton step). The calibrated
+    fit centres the best cell when it ran; else the step runs when a parameter narrowed."""
+    fitted = np.asarray(best.theta, dtype=float)
+    if fit is not None and noise.total is not None:
+        return _centred(fit, best.cell, noise.total, P, theta_cells, space, config=config), fit.step.theta, False
+    if vcfg.refit and any(v != "not identified" for v in verdicts):
+        return _refine(objective, best, noise, P, theta_cells, space, config=config, vcfg=vcfg, marg=marg,
+                       step_config=step_config), fitted, True
+    if fit_info:
+        return _Refinement(marg, fit_info), fitted, False
+    why = "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"
+    return _Refinement(marg, {"skipped": why}), fitted, False
+
+
+def _finishing(objective: Objective, best_theta: Sequence[float], noise: NoiseLevel, fit: LocalFinish | None,
+               local: dict[str, Any], stepped: bool, step_config: StepConfig) -> dict[str, Any]:
+    """The record of the finishing step (module docstring): the calibrated fit when it ran, else step
+    6's step when it was taken (``stepped``), else one step taken now from step 1's residuals."""
+    if fit is not None:
+        return dict(fit.info)
+    if stepped:
+        return {k: v for k, v in local.items() if k != "std"}
+    return step_record(objective, best_theta, step_config, start=noise.best_residuals)[1]
+
+
 def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: Sequence[Record], model: GPSurrogate, *,
            config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
-           verdict_config: VerdictConfig | None = None, fit_config: FitConfig = DEFAULT_FIT) -> Belief:
+           verdict_config: VerdictConfig | None = None, fit_config: FitConfig = DEFAULT_FIT,
+           finish_step: StepConfig | None = None) -> Belief:
     """The Belief of an identification run (module docstring).
 
     ``records``: every evaluation (journal Records, ``status`` "ok" for successes, ``parts`` per
     segment); ``model``: the GP fitted to all evaluations; ``seed``: minimizer-mode sampling;
-    ``fit_config``: the local fit of the "calibrated" noise rule.
+    ``fit_config``: the local fit of the "calibrated" noise rule; ``finish_step``: the Gauss-Newton
+    step that ends the run, taken here (module docstring), or None.
     """
     vcfg = verdict_config or VerdictConfig(identified_ratio=config.identified_ratio)
     ok = [r for r in records if r.status == "ok"]
     if len(ok) < 2:
         raise BeliefError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
+    counted = CountingObjective(objective)
     space = decoder.space
     errors = np.array([r.error for r in ok])
     best = ok[int(np.argmin(errors))]
@@ -271,12 +348,9 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     parts = np.array([r.parts for r in ok], dtype=float) if whole else errors[:, None]
     if parts.shape[1] != len(segments):
         segments = ("all",)
-    fit: LocalFinish | None = None
-    fit_info: dict[str, Any] = {}
-    if config.mode == "likelihood" and config.noise_var is None and objective.noise_var is None \
-            and config.noise_rule == "calibrated":
-        fit, fit_info = local_finish(objective, best.theta, fit_config)
-    noise = noise_level(objective, config, errors, parts, np.asarray(best.theta), dim=decoder.dim, fit=fit)
+    converges = fits_to_convergence(objective, config)
+    fit, fit_info = local_finish(counted, best.theta, fit_config) if converges else (None, {})
+    noise = noise_level(counted, config, errors, parts, np.asarray(best.theta), dim=decoder.dim, fit=fit)
     failed = np.zeros(grid.size, dtype=bool)
     failed[[r.cell for r in records if r.status != "ok"]] = True
     pred = model.predict(grid.points)
@@ -294,15 +368,9 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
         conflicts = segment_conflicts(seg, identified_ratio=vcfg.identified_ratio)
     marg = marginals(P, theta_cells, space, level=config.level, identified_ratio=config.identified_ratio)
     verdicts, reasons = decide(marg, best_theta=best.theta, verified=vmass, conflicts=conflicts, config=vcfg)
-    refined = _Refinement(marg, {"skipped": "no parameter narrowed" if vcfg.refit else "VerdictConfig.refit is off"})
-    fitted = np.asarray(best.theta, dtype=float)
-    if fit is not None and noise.total is not None:
-        refined = _centred(fit, best.cell, noise.total, P, theta_cells, space, config=config)
-        fitted = fit.step.theta
-    elif vcfg.refit and any(v != "not identified" for v in verdicts):
-        refined = _refine(objective, best, noise, P, theta_cells, space, config=config, vcfg=vcfg, marg=marg)
-    elif fit_info:
-        refined = _Refinement(marg, fit_info)
+    refined, fitted, stepped = _refinement(counted, best, fit, fit_info, noise, P, theta_cells, space, verdicts,
+                                           config=config, vcfg=vcfg, marg=marg,
+                                           step_config=finish_step or DEFAULT_STEP)
     marg, local, extra, ratio, spread = refined.marg, refined.local, refined.conflicts, refined.ratio, refined.spread
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
     verdicts, reasons = decide(marg, best_theta=fitted, verified=vmass, config=vcfg, local_ratio=ratio,
@@ -311,13 +379,21 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     best_mass = float(p[best.cell])
     trust = trust_note(marg, verdicts, best_theta=fitted, verified=vmass, best_mass=best_mass, config=vcfg,
                        local_ratio=ratio)
-    warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim)
+    finishing = None if finish_step is None else _finishing(counted, best.theta, noise, fit, local, stepped,
+                                                            finish_step)
+    reserved = 0 if finish_step is None else finishing_cost(objective.space.dim, finish_step, converges=converges,
+                                                            fit=fit_config)
+    warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim, failed=len(records) - len(ok),
+                          reserved=reserved)
     if warn:
         warnings.warn(warn, BudgetWarning, stacklevel=3)
     attrs = {"mode": config.mode, "level": config.level, "noise_var": noise.total, "noise_rule": noise.rule,
              "noise": noise.info, "segments": list(segments), "verified_mass": vmass, "n_evaluations": len(records),
              "n_successful": len(ok), "best_error": float(best.error), "budget_warning": warn, "local_fit": local,
              "at_bounds": [a.as_dict() for a in at_bound], "bound_tolerance": vcfg.bound_tolerance,
-             "error_floor": P.attrs.get("error_floor"), "best_cell_mass": best_mass, "trust": trust}
+             "error_floor": P.attrs.get("error_floor"), "best_cell_mass": best_mass, "trust": trust,
+             "assessment_evaluations": counted.evaluations}
+    if finishing is not None:
+        attrs["finishing_step"] = finishing
     return Belief(P, theta_cells, space, decoder_config=decoder.config(), grid_config=grid.config(),
                   verdicts=verdicts, reasons=reasons, attrs=attrs, level=config.level, grid=grid, spread=spread)

@@ -301,20 +301,26 @@ class Belief:
         """The Grid or SobolCandidates of the cells, rebuilt from ``grid_config`` (``candidates_from_config``)."""
         return candidates_from_config(self.grid_config)
 
-    def summary(self, truth: np.ndarray | Sequence[float] | None = None) -> str:
-        """Plain-text table: one row per parameter (unit, mean, interval, verdict; ``truth`` column if given);
-        a parameter pinned at a bound has "(at lower/upper bound)" after its verdict, and the "Model
-        inadequacy" block (belief.bounds.inadequacy_text) follows the table."""
+    def summary(self, truth: np.ndarray | Sequence[float] | None = None,
+                best: np.ndarray | Sequence[float] | None = None) -> str:
+        """Plain-text table: one row per parameter (unit, mean, interval, verdict; a ``best`` column, the
+        best θ of the run, and a ``truth`` column if given); a parameter pinned at a bound has "(at
+        lower/upper bound)" after its verdict, and the "Model inadequacy" block
+        (belief.bounds.inadequacy_text) follows the table."""
         m = self.marginals()
-        tr = None if truth is None else np.asarray(truth, dtype=float)
-        if tr is not None and tr.shape != (self.space.dim,):
-            raise BeliefError(f"truth must have shape ({self.space.dim},) in the order {list(self.space.names)}, "
-                              f"got {tr.shape}.")
+        tr, bt = (None if v is None else np.asarray(v, dtype=float) for v in (truth, best))
+        for label, v in (("truth", tr), ("best", bt)):
+            if v is not None and v.shape != (self.space.dim,):
+                raise BeliefError(f"{label} must have shape ({self.space.dim},) in the order "
+                                  f"{list(self.space.names)}, got {v.shape}.")
         head = f"{'parameter':<17}{'unit':<9}{'mean':>11}{'lower':>11}{'upper':>11}"
-        lines = [head + (f"{'truth':>11}" if tr is not None else "") + "  verdict"]
+        lines = [head + (f"{'best':>11}" if bt is not None else "") + (f"{'truth':>11}" if tr is not None else "")
+                 + "  verdict"]
         for j, name in enumerate(self.space.names):
             lo, hi = m["lower"].values[j], m["upper"].values[j]
             row = f"{name:<17}{self.space.units[j]:<9}{m['mean'].values[j]:>11.5g}{lo:>11.5g}{hi:>11.5g}"
+            if bt is not None:
+                row += f"{bt[j]:>11.5g}"
             if tr is not None:
                 row += f"{tr[j]:>10.5g}{' ' if lo <= tr[j] <= hi else '!'}"
             side = m["at_bound"].values[j]

@@ -105,7 +105,8 @@ def _add_search_options(g: argparse._ArgumentGroup) -> None:
                         "ActiveSubspace.save writes active (needed by those three)")
     g.add_argument("--latent", type=int, default=None, metavar="N",
                    help="evaluations of the latent stage of the handoff presets (default 15)")
-    g.add_argument("--budget", type=int, default=50, help="number of evaluations of E (default 50)")
+    g.add_argument("--budget", type=int, default=50,
+                   help="evaluations of E: the search's and the finishing Gauss-Newton step's (default 50)")
     g.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--dim", type=int, default=5, help="--decoder rembo: latent dimension (default 5, capped at D)")

@@ -285,7 +285,7 @@ def _settings(result: IdentificationResult, args: argparse.Namespace) -> list[li
     obj, grid = cfg.get("objective") or {}, cfg.get("grid") or {}
     rows: list[list[Any]] = [
         ["preset", f"{cfg.get('preset', args.preset)}: " + " -> ".join(cfg.get("stages", []))],
-        ["evaluations", f"{result.n_evaluations} of a budget of {args.budget}"
+        ["evaluations", result.evaluations_text()
                         + (f" (stopped: {cfg['stopped']})" if cfg.get("stopped") else "")],
         ["objective", f"{obj.get('kind', '?')}, loss {obj.get('loss', '-')}, horizon {obj.get('horizon', '-')}"],
         ["segments", ", ".join(attrs.get("segments", [])) or "-"],
@@ -298,7 +298,7 @@ def _settings(result: IdentificationResult, args: argparse.Namespace) -> list[li
     ]
     step = cfg.get("local_step")
     if step:
-        rows.append(["Gauss-Newton step", f"{step['evaluations']} simulations, E {step['start_error']:.4g} -> "
+        rows.append(["Gauss-Newton step", f"{step['evaluations']} evaluations of E, E {step['start_error']:.4g} -> "
                                           f"{step['error']:.4g}" + (" (its point is the best θ)" if step["improved"]
                                                                      else " (no lower; the best θ is kept)")])
     return rows

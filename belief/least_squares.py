@@ -87,14 +87,17 @@ def _flat(residuals: Sequence[np.ndarray], mask: np.ndarray) -> np.ndarray:
 
 
 class _Problem:
-    """r(u) and J(u) of the masked segments for scipy, each θ evaluated once (cached)."""
+    """r(u) and J(u) of the masked segments for scipy, each θ evaluated once (cached; ``known``: the
+    residuals at θ itself when the caller has them)."""
 
     def __init__(self, objective: Objective, theta: np.ndarray, indices: list[int], mask: np.ndarray,
-                 step: float) -> None:
+                 step: float, known: Sequence[np.ndarray] | None = None) -> None:
         self.objective, self.theta, self.indices, self.mask, self.step = objective, theta, indices, mask, step
         self.lower = objective.space.lower[indices]
         self.width = objective.space.upper[indices] - self.lower
         self.cache: dict[bytes, list[np.ndarray] | None] = {}
+        if known is not None:           # the caller's residuals at θ: no evaluation repeats them
+            self.cache[np.asarray(self.unit(theta[indices]), float).tobytes()] = [np.asarray(r, float) for r in known]
         self.evaluations = 0
         start = self.full(self.unit(theta[indices]))
         if start is None:
@@ -192,6 +195,11 @@ class StepConfig:
             raise BeliefError(f"StepConfig needs 0 < radius <= 1, step lengths in (0, 1], 0 < step < 0.5 and "
                               f"ridge >= 0, got {self.radius}, {self.lengths}, {self.step}, {self.ridge}.")
 
+    def cost(self, dim: int) -> int:
+        """The evaluations of E one step spends in a D = ``dim`` space: the start, the Jacobian's D and
+        one per step length."""
+        return dim + 1 + len(self.lengths)
+
 
 #: the default finishing step (frozen, so one instance serves as every default argument)
 DEFAULT_STEP = StepConfig()
@@ -243,18 +251,22 @@ def _delta(r: np.ndarray, J: np.ndarray, u: np.ndarray, config: StepConfig) -> n
     return lsq_linear(A, b, bounds=(lower, upper + 1e-15)).x
 
 
-def gauss_newton_step(objective: Objective, theta: np.ndarray, config: StepConfig = StepConfig()) -> LocalStep:
+def gauss_newton_step(objective: Objective, theta: np.ndarray, config: StepConfig = StepConfig(), *,
+                      start: Sequence[np.ndarray] | None = None) -> LocalStep:
     """One damped Gauss-Newton step from θ (D,) over all parameters and segments.
 
     With r, J at u (unit box; J by forward differences, one batch of D evaluations), the step is
     Δ = argmin ||r + JΔ||² + λ||Δ||² subject to the box and |Δ_j| <= radius (scipy's lsq_linear);
     the trial points u + aΔ for a in ``lengths`` are evaluated in one more batch. Costs D + 1 +
-    len(lengths) evaluations. The result's theta is the best point evaluated (the start if no
-    trial lowers E); its jacobian is the start's. Raises BeliefError if the simulation at θ fails,
-    NoResidualsError if the objective has no residuals (a wrapped plain function).
+    len(lengths) evaluations (``config.cost``), one fewer with ``start``, the residuals at θ (S
+    arrays) when the caller has evaluated them already. The result's theta is the best point
+    evaluated (the start if no trial lowers E); its jacobian is the start's. Raises BeliefError if
+    the simulation at θ fails, NoResidualsError if the objective has no residuals (a wrapped plain
+    function).
     """
     theta = np.asarray(theta, float).copy()
-    problem = _Problem(objective, theta, list(range(theta.size)), np.ones(len(objective.segments), bool), config.step)
+    problem = _Problem(objective, theta, list(range(theta.size)), np.ones(len(objective.segments), bool), config.step,
+                       known=start)
     u = np.clip(problem.unit(theta), 0.0, 1.0)
     r, J = problem.fun(u), problem.jac(u)
     delta = _delta(r, J, u, config)

@@ -98,12 +98,12 @@ def plot_error_trace(result: IdentificationResult, path: str | os.PathLike[str],
     step = result.config.get("local_step")
     xlabel = "evaluations"
     if step:
-        end = err.size + int(step["evaluations"])
+        end = err.size + int((result.config.get("evaluations") or {}).get("after_search", step["evaluations"]))
         ax.plot([err.size, end], [step["start_error"], step["error"]], "-", color="C2", lw=1.5)
         ax.plot([end], [step["error"]], "*", color="C2", ms=11,
-                label=f"Gauss-Newton step ({step['evaluations']} simulations): "
+                label=f"Gauss-Newton step ({step['evaluations']} evaluations of E): "
                       f"E {step['start_error']:.3g} → {step['error']:.3g}")
-        xlabel = "evaluations, then the simulations of the Gauss-Newton step"
+        xlabel = "evaluations of E: the search's, then the Gauss-Newton step's"
     if np.all(err[ok] > 0):
         ax.set_yscale("log")
     unit, meaning = error_unit(result.config)

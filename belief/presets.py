@@ -14,8 +14,14 @@ finishes them. ``identify(objective, budget=..., seed=...)`` without a decoder a
     random        -                             random Sobol θ                          -
     latent        BO to the budget              -                                       -
 
-Budget: ``budget`` counts every evaluation, the finishing step's D + 1 + len(lengths) included
-(belief.least_squares.gauss_newton_step), so stage 2 runs to ``budget - step cost``. The latent
+Budget: ``budget`` counts every evaluation of E, the finishing step's included: stage 2 runs to
+``budget`` less its cost (belief.assess.finishing_cost: D + 1 + len(lengths), 19 for the T6's
+D = 15; the calibrated noise rule's fit to convergence instead when it runs). The step is taken in
+stage 2's assessment and shares its evaluations: σ²'s residuals at the best evaluation are its
+start, and the verdicts' local refit (D + 4, belief.verdicts) is the same step, so a ``-gn`` run
+makes exactly ``budget`` evaluations. The presets without the step spend the assessment's (one
+for σ², D + 3 for the local refit when a parameter narrowed) after their ``budget``;
+``config["evaluations"]`` records the search's, those after it and the total. The latent
 stage needs a decoder over the objective's space: ``decoder=`` (a trained one,
 ``tensegrid train-embedding``), else the pretrained one shipped for the T6's default box
 (embeddings.pretrained); with neither, ``handoff`` presets run without their latent stage and
@@ -23,8 +29,9 @@ say so (:class:`PresetWarning`, ``result.config["stages"]``). The full space is 
 ``candidates`` Sobol points when D > 4, else a regular grid of ``points_per_dim`` per axis.
 
 The finishing step moves θ off the candidates: when it lowers E, ``best_theta`` and
-``best_error`` are its point, and ``config["local_step"]`` records both errors and its cost. P
-stays the posterior over stage 2's cells (the step is not journalled; a resumed run repeats it).
+``best_error`` are its point, and ``config["local_step"]`` records both errors and its
+evaluations. P stays the posterior over stage 2's cells (the step is not journalled; a resumed run
+repeats it).
 
 The local stage (belief.local_belief) replaces P by a belief at the data's resolution: local fits,
 σ² measured from the data, Algorithm 1 on a grid of the directions the data pin. It is not counted
@@ -41,17 +48,17 @@ from typing import Any, Literal
 
 import numpy as np
 
+from belief.assess import finishing_cost, fits_to_convergence
 from belief.errors import BeliefError, BudgetError
 from belief.grid import Grid, SobolCandidates
 from belief.handoff import continue_in
-from belief.least_squares import DEFAULT_STEP, StepConfig, gauss_newton_step
+from belief.least_squares import DEFAULT_STEP, StepConfig
 from belief.local_belief import DEFAULT_LOCAL, LocalConfig, NoLocalStage, local_stage
 from belief.posterior import PosteriorConfig
 from belief.result import IdentificationResult
-from belief.search import search, with_belief
+from belief.search import posterior_config, search, with_belief
 from embeddings import Decoder, Identity
 from embeddings.pretrained import pretrained_decoder
-from physics.errors import NoResidualsError
 from physics.measurements import MeasurementPrior
 from physics.objective import Objective, ObjectiveFunction, as_objective
 from physics.parameters import ParameterSpace
@@ -104,7 +111,8 @@ PRESETS: dict[str, Preset] = {p.name: p for p in (
 #: the recipe ``identify`` runs when given no decoder and grid
 DEFAULT_PRESET = "handoff-gn"
 
-#: on_stage(name) is called as each stage starts: "latent", "search" or "local_step"
+#: on_stage(name) is called as each stage starts: "latent", "search", "local_step" (as stage 2's
+#: assessment starts, which takes the step: every evaluation from there on is the step's) or "local"
 OnStage = Callable[[str], None]
 
 
@@ -135,15 +143,18 @@ def _latent_decoder(preset: Preset, objective: Objective, decoder: Decoder | Non
     return replace(preset, latent=0), None
 
 
-def _step_cost(preset: Preset, space_dim: int, step: StepConfig) -> int:
-    return space_dim + 1 + len(step.lengths) if preset.local_step else 0
+def _step_cost(preset: Preset, space_dim: int, step: StepConfig, converges: bool) -> int:
+    """The evaluations of the budget kept for the finishing step (module docstring), 0 without one."""
+    return finishing_cost(space_dim, step, converges=converges) if preset.local_step else 0
 
 
-def minimum_budget(preset: str | Preset, space_dim: int, step: StepConfig = DEFAULT_STEP) -> int:
+def minimum_budget(preset: str | Preset, space_dim: int, step: StepConfig = DEFAULT_STEP, *,
+                   converges: bool = False) -> int:
     """The smallest budget ``preset`` runs with in a D = ``space_dim`` space: its latent evaluations, one
-    more (at least two: the posterior fits a GP) and its finishing step."""
+    more (at least two: the posterior fits a GP) and its finishing step (``converges``: the calibrated
+    noise rule fits to convergence instead, belief.assess.fits_to_convergence)."""
     recipe = resolve(preset)
-    return _step_cost(recipe, space_dim, step) + max(recipe.latent + 1, 2)
+    return _step_cost(recipe, space_dim, step, converges) + max(recipe.latent + 1, 2)
 
 
 def _full_space(space_dim: int, decoder: Identity, preset: Preset, seed: int) -> Grid | SobolCandidates:
@@ -157,19 +168,23 @@ def _latent_journal(journal: str | os.PathLike[str] | None) -> str | None:
 
 
 def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, budget: int, seed: int,
-            journal: str | os.PathLike[str] | None, on_stage: OnStage, options: dict[str, Any]) -> IdentificationResult:
-    """Stages 1 and 2 of the module docstring, ``budget`` evaluations in all."""
+            journal: str | os.PathLike[str] | None, on_stage: OnStage, finish_step: StepConfig | None,
+            options: dict[str, Any]) -> IdentificationResult:
+    """Stages 1 and 2 of the module docstring, ``budget`` evaluations in all, ``finish_step`` taken
+    in stage 2 (belief.search) and counted in ``budget``."""
     space = objective.space
+    stepping = None if finish_step is None else (lambda: on_stage("local_step"))
     if preset.search is None:
         assert decoder is not None
         on_stage("latent")
         return search(objective, decoder, Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim),
-                      budget=budget, seed=seed, journal=journal, **options)
+                      budget=budget, seed=seed, journal=journal, finish_step=finish_step, on_assess=stepping,
+                      **options)
     full = Identity(space)
     if preset.latent == 0:
         on_stage("search")
         return search(objective, full, _full_space(space.dim, full, preset, seed), budget=budget, seed=seed,
-                      journal=journal, proposer=preset.search, **options)
+                      journal=journal, proposer=preset.search, finish_step=finish_step, on_assess=stepping, **options)
     assert decoder is not None
     on_stage("latent")
     quiet = {k: v for k, v in options.items() if k not in ("posterior", "verdict_config")}
@@ -177,26 +192,26 @@ def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, bu
                    budget=preset.latent, seed=seed, journal=_latent_journal(journal), posterior=None, **quiet)
     on_stage("search")
     return continue_in(first, objective, full, budget=budget, seed=seed, n=preset.candidates, journal=journal,
-                       proposer=preset.search, **options)
+                       proposer=preset.search, finish_step=finish_step, on_assess=stepping, **options)
 
 
-def _finish(result: IdentificationResult, objective: Objective, step: StepConfig) -> IdentificationResult:
-    """One Gauss-Newton step from the best θ; its point becomes the best when it lowers E. An
-    objective without residual vectors (a plain function) keeps the search's best, with a warning."""
-    start = np.asarray(result.best_theta.values, dtype=float)
-    try:
-        local = gauss_newton_step(objective, start, step)
-    except NoResidualsError as exc:
+def _finish(result: IdentificationResult) -> IdentificationResult:
+    """The finishing step stage 2 took (``config["finishing_step"]``, belief.search): its point becomes
+    the best when it lowers E. Where it could not be taken (a plain function has no residual
+    vectors) the search's best stays, with a warning."""
+    record = result.config.pop("finishing_step", None) or {"skipped": "no step was taken"}
+    if "skipped" in record:
         warnings.warn(f"preset {result.config['preset']!r}: the finishing Gauss-Newton step needs residual vectors "
-                      f"({exc}); the search's best θ is kept.", PresetWarning, stacklevel=3)
+                      f"and a simulation that runs at the best θ ({record['skipped']}); the search's best θ is kept.",
+                      PresetWarning, stacklevel=3)
         result.config["stages"] = result.config["stages"][:-1]
         return result
-    result.config["local_step"] = {"start_error": float(local.start_error), "error": float(local.error),
-                                   "evaluations": int(local.evaluations),
-                                   "improved": bool(local.error < result.best_error)}
-    if local.error < result.best_error:
-        result.best_theta = result.best_theta.copy(data=np.asarray(local.theta, dtype=float))
-        result.best_error = float(local.error)
+    error, start_error = float(record["error"]), float(record["start_error"])
+    result.config["local_step"] = {"start_error": start_error, "error": error,
+                                   "evaluations": int(record["evaluations"]), "improved": bool(error < start_error)}
+    if error < result.best_error:
+        result.best_theta = result.best_theta.copy(data=np.asarray(record["theta"], dtype=float))
+        result.best_error = error
     return result
 
 
@@ -237,17 +252,20 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
                on_stage: OnStage | None = None, **options: Any) -> IdentificationResult:
     """Identify θ by the recipe ``preset`` (module docstring) in ``budget`` evaluations.
 
+    ``budget`` counts every evaluation of E, the finishing step's included (module docstring);
     ``decoder``: the latent stage's decoder (default: the pretrained one for this space, if any);
     ``journal``: SQLite path of the full-space stage (the latent stage journals beside it, suffix
     ``-latent``); ``space``, ``workers``: for a plain function θ -> E only, wrapped once
     (physics.objective.as_objective); ``on_stage(name)``: called as "latent", "search",
-    "local_step" start; ``options`` go to each stage (posterior, surrogate, verdict_config, q,
-    n_init, time_budget, progress, ...; belief.search.search), the proposer being the preset's.
+    "local_step" (stage 2's assessment, which takes the step), "local" start; ``options`` go to each
+    stage (posterior, surrogate, verdict_config, q, n_init, time_budget, progress, ...;
+    belief.search.search), the proposer being the preset's.
     """
     if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
         raise BudgetError(f"budget must be >= 1 evaluation, got {budget!r}; a zero budget identifies nothing.")
-    if "proposer" in options:
-        raise BeliefError("a preset chooses its own proposers; pass a grid and decoder for a search with proposer=.")
+    if {"proposer", "finish_step", "on_assess"} & set(options):
+        raise BeliefError("a preset chooses its own proposers and finishing step (step=, on_stage=); pass a grid and "
+                          "decoder for a search with proposer=, finish_step= or on_assess=.")
     if isinstance(objective, Objective) and (space is not None or workers != 1):
         raise BeliefError("space= and workers= wrap a plain function θ -> E; this objective has its own space "
                           f"({list(objective.space.names)}): leave them out.")
@@ -255,13 +273,15 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
     recipe, latent = _latent_decoder(resolve(preset), objective, decoder)
     on_stage = on_stage or (lambda name: None)
     pcfg = _local_posterior(options) if recipe.local_stage else None
-    cost, least = _step_cost(recipe, objective.space.dim, step), minimum_budget(recipe, objective.space.dim, step)
-    search_budget = budget - cost
+    converges = fits_to_convergence(objective, posterior_config(options.get("posterior", "likelihood")))
+    cost = _step_cost(recipe, objective.space.dim, step, converges)
+    least, search_budget = minimum_budget(recipe, objective.space.dim, step, converges=converges), budget - cost
     if budget < least:
         raise BudgetError(f"budget={budget} is too small for preset {recipe.name!r}: {recipe.latent} latent "
-                          f"evaluations and a finishing step of {cost} leave too few for the search (the posterior "
-                          f"needs 2 evaluations); give at least {least}.")
-    result = _search(objective, recipe, latent, budget=search_budget, seed=seed, journal=journal, on_stage=on_stage,
+                          f"evaluations and a finishing Gauss-Newton step of {cost} leave too few for the search (the "
+                          f"posterior needs 2 evaluations); give at least {least}.")
+    result = _search(objective, recipe, latent, budget=budget, seed=seed, journal=journal, on_stage=on_stage,
+                     finish_step=step if recipe.local_step else None,
                      options=options if pcfg is None else {**options, "posterior": None})
     if pcfg is not None:
         on_stage("local")
@@ -274,6 +294,5 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
         ([f"Gauss-Newton step ({cost} evaluations)"] if recipe.local_step else []) + \
         (["local stage (belief.local_belief)"] if pcfg is not None and result.config.get("local_stage") else [])
     if recipe.local_step:
-        on_stage("local_step")
-        result = _finish(result, objective, step)
+        result = _finish(result)
     return result

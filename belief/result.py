@@ -146,14 +146,27 @@ class IdentificationResult:
             raise BeliefError("this result has no posterior (identify(..., posterior=None)).")
         return credible_region(self.belief.P, level=level)
 
+    def evaluations_text(self) -> str:
+        """How many evaluations of E the run made and of what budget: the search's and those after it
+        (σ² residuals, Gauss-Newton steps: belief.search), when the config records them."""
+        made = self.config.get("evaluations") or {}
+        total, after = int(made.get("total", self.n_evaluations)), int(made.get("after_search", 0))
+        budget = self.config.get("budget")
+        text = f"{total} evaluations of E"
+        if budget is not None:
+            text += f" (budget {budget}" + (", which counts the search's)" if total > int(budget) else ")")
+        if after:
+            text += (f": {int(made.get('search', self.n_evaluations))} by the search and {after} after it (σ²'s "
+                     "residuals, the Gauss-Newton step)")
+        return text
+
     def summary(self, truth: np.ndarray | None = None) -> str:
         """Plain-text table of the marginals and verdicts (``truth``: a column of the true θ)."""
-        tail = f"best error {self.best_error:.6g} after {self.n_evaluations} evaluations"
+        tail = f"best error {self.best_error:.6g} after {self.evaluations_text()}"
         step = self.config.get("local_step")
         if step:                                        # a preset's finishing step (belief.presets)
-            tail += (f" and the finishing Gauss-Newton step ({step['evaluations']} simulations: E "
-                     f"{step['start_error']:.6g} -> {step['error']:.6g}"
-                     + (", its point is the best θ)" if step["improved"] else ", no lower; the best θ is kept)"))
+            tail += (f"; the finishing Gauss-Newton step took E {step['start_error']:.6g} -> {step['error']:.6g}"
+                     + (", its point is the best θ" if step["improved"] else ", no lower; the best θ is kept"))
         if self.belief is None:
             return tail + " (no posterior)"
         warn = self.belief.attrs.get("budget_warning")
@@ -161,19 +174,20 @@ class IdentificationResult:
         stage = self.config.get("local_stage")
         if stage:
             tail += (f"\nlocal stage: Gauss-Newton fits from the {len(local.get('starts', []))} best evaluations "
-                     f"({stage['fit_evaluations']} simulations) end at E {local['error']:.6g}; then Algorithm 1 on a "
-                     f"grid over the {stage['directions']} directions the data pin most ({stage['evaluations']} "
-                     "simulations)")
+                     f"({stage['fit_evaluations']} evaluations of E) end at E {local['error']:.6g}; then Algorithm 1 "
+                     f"on a grid over the {stage['directions']} directions the data pin most ({stage['evaluations']} "
+                     "evaluations of E); both outside the budget")
         elif "error" in local:
             tail += (f"\nlocal fit over all parameters (the local refit verdict rule): one Gauss-Newton step from "
-                     f"the best evaluation gives E {local['error']:.6g} ({local['evaluations']} simulations)")
+                     f"the best evaluation gives E {local['error']:.6g} ({local['evaluations']} evaluations of E)")
         noise = noise_text(self.belief.attrs)
         tail += f"\n{noise}" if noise else ""
         pin = self.identifiability
         tail += ("\n" + "\n".join(pin.lines())) if pin is not None else ""
         trust = self.belief.attrs.get("trust")          # why P cannot be trusted (belief.verdicts.trust_note)
         tail += f"\nwarning: {trust}" if trust else ""
-        return self.belief.summary(truth=truth) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")
+        best = np.asarray(self.best_theta.values, dtype=float)
+        return self.belief.summary(truth=truth, best=best) + "\n" + tail + (f"\nwarning: {warn}" if warn else "")
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the result to one netCDF4 file: root (config, best θ), groups ``belief`` and ``history``."""

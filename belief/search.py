@@ -49,6 +49,13 @@ finishes in any order.
 Time budget: counts the journalled seconds of replayed evaluations plus this session's wall time;
 it is checked before each batch.
 
+Evaluations: ``budget`` counts the search's evaluations of E (``result.n_evaluations``; carried
+and replayed ones included). The assessment evaluates E after them (σ² residuals, the local
+refit's Gauss-Newton step: belief.assess); with ``finish_step`` (the presets' finishing
+Gauss-Newton step, taken in the assessment so that it shares those evaluations) the budget counts
+them too: the search stops :func:`belief.assess.finishing_cost` short of it. ``config["evaluations"]``
+records the search's, those after it and their total.
+
 Why not botorch/Ax: the project uses pyro.contrib.gp for the GP (DESIGN.md), and the loop is over
 a finite set of cells, which needs no continuous acquisition optimizer.
 """
@@ -66,11 +73,13 @@ from typing import Any, Literal
 import numpy as np
 import xarray as xr
 
-from belief.assess import assess
+from belief.assess import assess, finishing_cost, fits_to_convergence, step_record
+from belief.counting import CountingObjective
 from belief.driver import Budget, DriverResult, run
 from belief.errors import BeliefError, BudgetError, BudgetWarning, GridError, ObjectiveError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.journal import Journal, Record
+from belief.least_squares import StepConfig
 from belief.posterior import PosteriorConfig, posterior_from_surrogate
 from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, fit_surrogate
 from belief.result import IdentificationResult, history_dataset
@@ -81,7 +90,7 @@ from embeddings.identity import Identity
 from physics.objective import Objective, ObjectiveFunction, as_objective
 from physics.parameters import ParameterSpace
 
-__all__ = ["search", "problem_fingerprint", "default_n_init", "PROPOSERS"]
+__all__ = ["search", "problem_fingerprint", "default_n_init", "PROPOSERS", "posterior_config", "evaluations_record"]
 
 #: the built-in proposers by name
 PROPOSERS = ("bo", "random")
@@ -136,8 +145,9 @@ def _validate_problem(objective: Objective | ObjectiveFunction, decoder: Decoder
 
 
 def _validate_budget(grid: CandidateSet, decoder: Decoder, budget: Any, time_budget: Any, q: Any,
-                     n_init: Any, seed: Any) -> tuple[int, int]:
-    """(evaluations to reach, initial design size), after checking budgets and options."""
+                     n_init: Any, seed: Any, reserved: int) -> tuple[int, int]:
+    """(evaluations to reach, initial design size), after checking budgets and options; ``reserved``:
+    the evaluations of ``budget`` kept for the finishing step."""
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
         raise BeliefError(f"seed must be an integer, got {seed!r}.")
     if budget is None and time_budget is None:
@@ -147,17 +157,20 @@ def _validate_budget(grid: CandidateSet, decoder: Decoder, budget: Any, time_bud
             raise BudgetError(f"budget must be an integer number of evaluations, got {budget!r}.")
         if budget < 1:
             raise BudgetError(f"budget must be >= 1 evaluation, got {budget!r}; a zero budget identifies nothing.")
-        if budget > grid.size:
-            raise BudgetError(
-                f"budget={budget} exceeds the {grid.size} grid cells (each cell is evaluated at most once); "
-                "use a finer grid or a smaller budget."
-            )
+        if budget <= reserved:
+            raise BudgetError(f"budget={budget} leaves no evaluation of E for the search after the {reserved} of the "
+                              f"finishing Gauss-Newton step; give at least {reserved + 2}.")
+        if budget - reserved > grid.size:
+            kept = (f" leaves {budget - reserved} evaluations for the search after the {reserved} of the finishing "
+                    "Gauss-Newton step, which") if reserved else ""
+            raise BudgetError(f"budget={budget}{kept} exceeds the {grid.size} grid cells (each cell is evaluated at "
+                              "most once); use a finer grid or a smaller budget.")
     if time_budget is not None and not (isinstance(time_budget, (int, float)) and math.isfinite(time_budget)
                                         and time_budget > 0):
         raise BudgetError(f"time_budget must be a positive number of seconds, got {time_budget!r}.")
     if not isinstance(q, (int, np.integer)) or q < 1:
         raise BudgetError(f"q (cells per batch) must be an integer >= 1, got {q!r}.")
-    n_target = int(budget) if budget is not None else int(grid.size)
+    n_target = int(budget) - reserved if budget is not None else int(grid.size)     # the search's evaluations
     if n_init is None:
         n_init = default_n_init(decoder.dim)
     if not isinstance(n_init, (int, np.integer)) or n_init < 1:
@@ -204,7 +217,7 @@ def _carried_fingerprint(carry: Sequence[Record]) -> dict[str, Any]:
     return {"n": len(carry), "sha256": hashlib.sha256(text.encode()).hexdigest()}
 
 
-def _posterior_config(posterior: PosteriorConfig | str | None) -> PosteriorConfig | None:
+def posterior_config(posterior: PosteriorConfig | str | None) -> PosteriorConfig | None:
     """``posterior`` as a PosteriorConfig: a mode name gives that mode's defaults; None stays None (no P)."""
     if posterior is None or isinstance(posterior, PosteriorConfig):
         return posterior
@@ -257,6 +270,8 @@ def search(
     progress: bool = True,
     callback: Callable[[int, xr.DataArray], None] | None = None,
     carry: Sequence[Record] = (),
+    finish_step: StepConfig | None = None,
+    on_assess: Callable[[], None] | None = None,
 ) -> IdentificationResult:
     """Search ``grid`` by Algorithm 1 (module docstring) and return the belief over it.
 
@@ -272,18 +287,26 @@ def search(
     (belief.verdicts; ``refit=False`` skips the local Gauss-Newton check);
     ``callback(n_evaluations, P)``: called
     before every batch with a fitted surrogate (one extra pass over the grid per batch); ``carry``:
-    evaluations made before this run, as batch 0 (belief.handoff builds them; ``n_init`` is their number).
+    evaluations made before this run, as batch 0 (belief.handoff builds them; ``n_init`` is their number);
+    ``finish_step``: a Gauss-Newton step from the best evaluation that ends the run, counted in
+    ``budget`` (module docstring) and recorded in ``config["finishing_step"]``; it moves nothing
+    (belief.presets makes its point the best θ); ``on_assess()``: called once the search's evaluations
+    are done, as those after it (assessment, finishing step) start.
     """
     objective, space = _validate_problem(objective, decoder, grid)
     n_init = _carried_init(carry, n_init)
-    n_target, n_init = _validate_budget(grid, decoder, budget, time_budget, q, n_init, seed)
+    pcfg = posterior_config(posterior)
+    reserved = 0 if finish_step is None or budget is None else \
+        finishing_cost(space.dim, finish_step, converges=fits_to_convergence(objective, pcfg))
+    n_target, n_init = _validate_budget(grid, decoder, budget, time_budget, q, n_init, seed, reserved)
     seed, scfg = int(seed), surrogate or SurrogateConfig()
-    pcfg = _posterior_config(posterior)
     chooser = _proposer(proposer, seed, scfg, n_init)
     if isinstance(chooser, BOProposer) and n_target <= n_init:
-        warnings.warn(f"budget={n_target} is no more than the initial design of {n_init} cells: BO never runs and the "
-                      f"result is the initial design's; give budget >= {n_init + 1} (or a smaller n_init).",
-                      BudgetWarning, stacklevel=2)
+        kept = f" leaves {n_target} evaluations for the search after the {reserved} of the finishing Gauss-Newton " \
+               "step:" if reserved else " is"
+        warnings.warn(f"budget={budget if reserved else n_target}{kept} no more than the initial design of {n_init} "
+                      f"cells: BO never runs and the result is the initial design's; give budget >= "
+                      f"{n_init + 1 + reserved} (or a smaller n_init).", BudgetWarning, stacklevel=2)
     fp = problem_fingerprint(objective, decoder, grid, chooser, seed=seed, q=int(q), n_init=n_init, surrogate=scfg)
     if carry:
         fp["carried"] = _carried_fingerprint(carry)
@@ -295,8 +318,10 @@ def search(
     finally:
         if jr is not None:
             jr.close()
+    if on_assess is not None:
+        on_assess()
     return _result(objective, decoder, grid, out, space=space, config=fp, pcfg=pcfg, scfg=scfg, seed=seed,
-                   vcfg=verdict_config, extra={"budget": budget, "time_budget": time_budget})
+                   vcfg=verdict_config, extra={"budget": budget, "time_budget": time_budget}, finish_step=finish_step)
 
 
 def with_belief(objective: Objective, result: IdentificationResult, *,
@@ -307,7 +332,7 @@ def with_belief(objective: Objective, result: IdentificationResult, *,
     same as having searched with ``posterior``): the decoder and grid are rebuilt from its config."""
     from embeddings import decoder_from_config
 
-    pcfg, scfg = _posterior_config(posterior), surrogate or SurrogateConfig()
+    pcfg, scfg = posterior_config(posterior), surrogate or SurrogateConfig()
     assert pcfg is not None
     decoder = decoder_from_config(result.config["decoder"], objective.space)
     grid = candidates_from_config(result.config["grid"])
@@ -317,8 +342,10 @@ def with_belief(objective: Objective, result: IdentificationResult, *,
         raise ObjectiveError("fewer than 2 successful evaluations; the posterior needs at least 2.")
     belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=int(seed),
                     verdict_config=verdict_config)
+    before = int((result.config.get("evaluations") or {}).get("after_search", 0))
     config = {**result.config, "posterior": pcfg.mode, "noise_var": belief.attrs.get("noise_var"),
-              "noise_rule": belief.attrs.get("noise_rule")}
+              "noise_rule": belief.attrs.get("noise_rule"),
+              "evaluations": evaluations_record(len(records), before + int(belief.attrs["assessment_evaluations"]))}
     return IdentificationResult(belief=belief, history=result.history, best_theta=result.best_theta,
                                 best_error=result.best_error, config=config)
 
@@ -331,10 +358,18 @@ def _label(proposer: Proposer, decoder: Decoder) -> str:
     return f"identify[{kind}, {where}]"
 
 
+def evaluations_record(search: int, after: int) -> dict[str, int]:
+    """``config["evaluations"]``: the search's evaluations of E, those after it (assessment, finishing
+    step) and their total."""
+    return {"search": int(search), "after_search": int(after), "total": int(search) + int(after)}
+
+
 def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: DriverResult, *, space: ParameterSpace,
             config: dict[str, Any], pcfg: PosteriorConfig | None, scfg: SurrogateConfig,
-            seed: int, extra: dict[str, Any], vcfg: VerdictConfig | None = None) -> IdentificationResult:
-    """The IdentificationResult of the driver's records: best θ, history and (with ``pcfg``) the Belief."""
+            seed: int, extra: dict[str, Any], vcfg: VerdictConfig | None = None,
+            finish_step: StepConfig | None = None) -> IdentificationResult:
+    """The IdentificationResult of the driver's records: best θ, history, (with ``pcfg``) the Belief,
+    (with ``finish_step``) the finishing step's record, and the evaluations of E made."""
     records = out.records
     ok = [r for r in records if r.status == "ok"]
     if not records:
@@ -348,17 +383,22 @@ def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: Dri
     best = min(ok, key=lambda r: r.error)
     best_theta = xr.DataArray(np.asarray(best.theta), dims=("parameter",), name="best_theta",
                               coords={"parameter": list(space.names), "unit": ("parameter", list(space.units))})
-    belief = None
+    belief, after, finishing = None, 0, None
     if pcfg is not None:
         model = fit_surrogate(records, grid, scfg)
         if model is None:
             raise ObjectiveError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
         belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=seed,
-                        verdict_config=vcfg)
+                        verdict_config=vcfg, finish_step=finish_step)
+        after, finishing = int(belief.attrs["assessment_evaluations"]), belief.attrs.get("finishing_step")
         fit = belief.attrs.get("local_fit") or {}
         if fit.get("converged_fit") and float(fit["error"]) < float(best.error):     # the local fit's end point
             best_theta = best_theta.copy(data=np.asarray(fit["theta"], dtype=float))
             best = replace(best, error=float(fit["error"]))
+    elif finish_step is not None:                   # no assessment to take it in
+        counted = CountingObjective(objective)
+        finishing = step_record(counted, best.theta, finish_step)[1]
+        after = counted.evaluations
     segments = tuple(objective.segments)
     hist = history_dataset(records, latent_names=tuple(f"z{i}" for i in range(grid.dim)), space=space,
                            segments=segments)
@@ -366,6 +406,9 @@ def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: Dri
     cfg.update(extra)
     cfg.update({"posterior": pcfg.mode if pcfg else None, "stopped": out.stopped, "n_evaluations": len(records),
                 "noise_var": None if belief is None else belief.attrs.get("noise_var"),
-                "noise_rule": None if belief is None else belief.attrs.get("noise_rule")})
+                "noise_rule": None if belief is None else belief.attrs.get("noise_rule"),
+                "evaluations": evaluations_record(len(records), after)})
+    if finish_step is not None:
+        cfg["finishing_step"] = finishing
     return IdentificationResult(belief=belief, history=hist, best_theta=best_theta, best_error=float(best.error),
                                 config=cfg)

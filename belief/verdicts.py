@@ -271,15 +271,23 @@ def pinned(marginals: xr.Dataset, found: Sequence[AtBound], *, weak_ratio: float
     return tuple(a for a in found if a.name in narrow)
 
 
-def budget_warning(n_ok: int, dim: int, *, per_dim: int) -> str:
-    """A message when n_ok < per_dim x dim successful evaluations, else ""."""
+def budget_warning(n_ok: int, dim: int, *, per_dim: int, failed: int = 0, reserved: int = 0) -> str:
+    """A message when the GP fitted n_ok < per_dim x dim successful evaluations of a ``dim``-dimensional
+    search, else "". It counts what the GP saw, the search's evaluations; the budget it suggests adds
+    the ``failed`` ones (as many failures again) and the ``reserved`` evaluations the run spends after
+    the search (a finishing Gauss-Newton step, belief.assess.finishing_cost), so that a run with that
+    budget gives the GP per_dim x dim."""
     need = per_dim * dim
     if n_ok >= need:
         return ""
+    extra = (f", {failed} for as many failures" if failed else "") + \
+        (f", {reserved} for the finishing Gauss-Newton step" if reserved else "")
+    split = f" ({need} for the GP{extra})" if extra else ""
     return (f"{n_ok} successful evaluations for a {dim}-dimensional search: a GP needs about {per_dim} per "
-            f"dimension ({need}) to map E; P follows the GP's guesses between the evaluations. Verdicts "
-            f"require verified mass and evaluated support; raise the budget or search a lower-dimensional "
-            f"embedding for sharper answers.")
+            f"dimension ({need}) to map E, and it fits the search's evaluations only; P follows the GP's guesses "
+            f"between them. Verdicts require verified mass and evaluated support; for sharper answers give a budget "
+            f"of {need + failed + reserved} evaluations of E{split} or search a "
+            f"lower-dimensional embedding.")
 
 
 def unsupported(marginals: xr.Dataset, best_theta: np.ndarray | Sequence[float]) -> dict[str, str]:

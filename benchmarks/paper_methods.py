@@ -36,7 +36,7 @@ PEERS = ("cma-es", "botorch")
 class Recorder:
     """The objective contract, delegated to ``inner``, logging every evaluation in ``log``.
 
-    Residual evaluations (``residuals_batch``) are logged only while ``count_residuals`` is set:
+    Residual evaluations (``residuals``, ``residuals_batch``) are logged only while ``count_residuals`` is set:
     belief methods spend them on the local refit verdict rule after their search (the verdict's cost, not the
     search's, and the same for every belief method), ``ae-cf-bo-gn`` on its counted step.
     """
@@ -75,6 +75,12 @@ class Recorder:
                 on_result(k, error, *rest)
 
         return self.inner.evaluate_batch(arr, on_result=relay)
+
+    def residuals(self, theta: np.ndarray) -> Any:
+        out = self.inner.residuals(theta)
+        if self.count_residuals:
+            self._note(theta, float(sum(np.nansum(np.asarray(r) ** 2) for r in out)))
+        return out
 
     def residuals_batch(self, thetas: np.ndarray) -> Any:
         arr = np.atleast_2d(np.asarray(thetas, dtype=float))

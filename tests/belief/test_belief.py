@@ -146,6 +146,10 @@ def test_summaries_agree_with_p() -> None:
     assert uniform.entropy() == pytest.approx(np.log(b.n_cells)) and not uniform.identified.any()
     text = b.summary(truth=b.mean)
     assert "truth" in text and all(n in text for n in b.space.names)
+    best = b.mean * 1.01
+    lines = b.summary(best=best).splitlines()
+    assert lines[0].split()[5] == "best" and "truth" not in lines[0]
+    assert [float(line.split()[5]) for line in lines[1:16]] == pytest.approx(best, rel=1e-4)
 
 
 def test_default_verdicts_follow_the_std_ratio() -> None:
@@ -240,6 +244,8 @@ def test_other_validation_branches(tmp_path) -> None:
         b.sample(3, seed=None)
     with pytest.raises(BeliefError, match=r"truth must have shape \(2,\)"):
         b.summary(truth=[1.0])
+    with pytest.raises(BeliefError, match=r"best must have shape \(2,\)"):
+        b.summary(best=[1.0, 2.0, 3.0])
 
 
 def test_loading_what_is_not_a_belief_fails(tmp_path) -> None:

@@ -182,7 +182,8 @@ def test_identify_reports_nothing_when_the_truth_is_inside_the_box() -> None:
 
 @pytest.mark.slow
 def test_cli_prints_and_writes_the_inadequacy_block(tmp_path, capsys) -> None:
-    """``tensegrid identify`` on the 2.0 m-rod flop: the printed summary and summary.txt say it."""
+    """``tensegrid identify`` on the 2.0 m-rod flop: refused before any simulation, as the markers show
+    rods outside the box; with --skip-checks the printed summary and summary.txt say it."""
     import argparse
 
     from belief.cli import register_identify
@@ -193,8 +194,12 @@ def test_cli_prints_and_writes_the_inadequacy_block(tmp_path, capsys) -> None:
     path = save_trajectory(data, tmp_path / "long_rods.nc")
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["identify", str(path), "--preset", "bo", "--budget", "20", "--candidates", "1024",
-                              "--out", str(tmp_path / "out"), "--no-progress"])
+    argv = ["identify", str(path), "--preset", "bo", "--budget", "20", "--candidates", "1024",
+            "--out", str(tmp_path / "out"), "--no-progress"]
+    refused = parser.parse_args(argv)
+    assert refused.func(refused) == 2 and "--bounds rod_length=" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+    args = parser.parse_args([*argv, "--skip-checks"])
     assert args.func(args) == 0
     printed, written = capsys.readouterr().out, (tmp_path / "out" / "summary.txt").read_text()
     for text in (printed, written):

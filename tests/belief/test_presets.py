@@ -53,7 +53,9 @@ def test_the_finishing_step_counts_in_the_budget_and_never_raises_the_best_error
     assert result.best_error <= bo.best_error + 1e-12
     assert step["error"] <= step["start_error"] + 1e-12
     assert counting.residual_rows >= step["evaluations"]
-    assert f"finishing Gauss-Newton step ({step['evaluations']} simulations" in result.summary()
+    assert result.config["evaluations"] == {"search": 9, "after_search": 6, "total": 15}
+    assert "after 15 evaluations of E (budget 15): 9 by the search and 6 after it" in result.summary()
+    assert f"finishing Gauss-Newton step took E {step['start_error']:.6g} -> {step['error']:.6g}" in result.summary()
     if step["improved"]:
         assert result.best_error == pytest.approx(float(push(result.best_theta.values)), rel=1e-9)
 
@@ -138,6 +140,7 @@ def test_the_default_preset_on_t6_data_uses_the_shipped_latent_decoder() -> None
         warnings.simplefilter("ignore")
         result = identify(objective, budget=15 + 2 + 19, seed=0, progress=False)
         assert result.config["stages"][0] == "latent (DynamicsAutoencoder, 15 evaluations)"
-        assert result.n_evaluations == 17 and result.config["local_step"]["evaluations"] == 19
+        assert result.n_evaluations == 17 and result.config["evaluations"] == {"search": 17, "after_search": 19,
+                                                                             "total": 36}
         assert result.best_error <= float(np.nanmin(result.history["error"].values))
         assert result.best_error == pytest.approx(float(objective(result.best_theta.values)), rel=1e-9)
