@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+from linear_objective import LinearObjective
 
 from belief import BudgetWarning
 from belief.least_squares import gauss_newton_step
@@ -15,63 +16,21 @@ from belief.posterior import PosteriorConfig
 from belief.presets import run_preset
 from belief.verdicts import VerdictConfig
 from embeddings import REMBO
-from physics.objective import BatchResult, OnResult, evaluate_row, residual_row
-from physics.parameters import Parameter, ParameterSpace
+from physics.objective import BatchResult, OnResult
 
 
-class Linear:
-    """E(θ) = ||y − Aθ||² over the unit box in two segments, σ² unknown (the "ess" rule evaluates the
-    residuals at the best θ): a cheap objective with residual vectors, so every Gauss-Newton step runs."""
-
-    segments = ("w0", "w1")
-
-    def __init__(self, dim: int, seed: int = 0) -> None:
-        rng = np.random.default_rng(seed)
-        self.A = rng.normal(size=(60, dim))
-        self.y = self.A @ rng.uniform(0.3, 0.7, dim) + 0.01 * rng.normal(size=60)
-        self.space = ParameterSpace(tuple(Parameter(f"p{j}", "1", 0.5, 0.0, 1.0, "", minimum=-np.inf)
-                                          for j in range(dim)))
-
-    @property
-    def n_observations(self) -> int:
-        return int(self.y.size)
-
-    @property
-    def noise_var(self) -> float | None:
-        return None
-
-    @property
-    def noise_floor(self) -> float | None:
-        return None
-
-    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
-        r = self.y - self.A @ np.asarray(theta, float)
-        return [r[:30, None], r[30:, None]]
-
-    def evaluate_parts(self, theta: np.ndarray) -> np.ndarray:
-        return np.array([float(np.sum(r ** 2)) for r in self.residuals(theta)])
-
-    def __call__(self, theta: np.ndarray) -> float:
-        return float(self.evaluate_parts(theta).sum())
-
-    def evaluate_batch(self, thetas: np.ndarray, *, on_result: OnResult | None = None) -> BatchResult:
-        rows = [evaluate_row(self, t) for t in np.atleast_2d(thetas)]
-        for k, row in enumerate(rows):
-            if on_result is not None:
-                on_result(k, *row)
-        return BatchResult.from_rows(rows, 2)
-
-    def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
-        return [residual_row(self, t) for t in np.atleast_2d(thetas)]
-
-    def fingerprint(self) -> dict[str, object]:
-        return {"kind": "linear-budget-test", "y": self.y.tolist()}
+def _linear(dim: int, seed: int = 0) -> LinearObjective:
+    """E(θ) = ||y − Aθ||² in two segments, σ² unknown (the "ess" rule evaluates the residuals at the
+    best θ): a cheap objective with residual vectors, so every Gauss-Newton step runs."""
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(60, dim))
+    return LinearObjective(A, A @ rng.uniform(0.3, 0.7, dim) + 0.01 * rng.normal(size=60), segments=2)
 
 
 class Counting:
     """``inner``'s objective contract, counting every θ it is asked to evaluate, by any method."""
 
-    def __init__(self, inner: Linear) -> None:
+    def __init__(self, inner: LinearObjective) -> None:
         self.inner, self.space, self.evaluations = inner, inner.space, 0
 
     segments = property(lambda self: self.inner.segments)
@@ -105,7 +64,7 @@ class Counting:
 
 def _run(preset: str, budget: int, **options):
     """(result, evaluations counted, BudgetWarning messages) of ``preset`` on the 3-D linear objective."""
-    objective = Counting(Linear(3))
+    objective = Counting(_linear(3))
     decoder = REMBO(objective.space, dim=2, seed=0) if preset.startswith("handoff") else None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -171,7 +130,7 @@ def test_the_initial_design_warning_suggests_a_budget_that_lets_bo_run() -> None
 
 
 def test_a_step_from_residuals_already_evaluated_costs_one_evaluation_less_and_lands_alike() -> None:
-    objective = Counting(Linear(3))
+    objective = Counting(_linear(3))
     theta = np.array([0.2, 0.8, 0.5])
     fresh = gauss_newton_step(objective, theta)
     assert objective.evaluations == fresh.evaluations == 3 + 4

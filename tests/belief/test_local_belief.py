@@ -3,59 +3,24 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from linear_objective import LinearObjective
 
 from belief import Belief, identify
-from belief.errors import BeliefError
 from belief.curvature import secant_information
+from belief.errors import BeliefError
 from belief.local_belief import LocalConfig, fisher_information, pinned_directions, towards_prior
 from belief.spread import ComplementSpread
-from physics import ParameterSpace
 from physics.measurements import Measurement, MeasurementPrior
-from physics.objective import BatchResult, OnResult, evaluate_row, residual_row
-from physics.parameters import Parameter
 
 SIGMA = 0.05
 
 
-def _space(dim: int) -> ParameterSpace:
-    return ParameterSpace(tuple(Parameter(f"p{j}", "1", 0.5, 0.0, 1.0, "", minimum=-np.inf) for j in range(dim)))
-
-
-class Linear:
+class Linear(LinearObjective):
     """E(θ) = ||y − Aθ||², y = Aθ* + ε, over the unit box; four segments; the noise unknown to belief
     but its floor σ² declared (what a trajectory objective measures from its data)."""
 
-    segments = ("w0", "w1", "w2", "w3")
-
     def __init__(self, A: np.ndarray, y: np.ndarray) -> None:
-        self.A, self.y, self.space = A, y, _space(A.shape[1])
-
-    n_observations = property(lambda self: int(self.y.size))
-    noise_var = property(lambda self: None)
-    noise_floor = property(lambda self: SIGMA ** 2)
-
-    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
-        r = self.y - self.A @ np.asarray(theta, float)
-        return [part[:, None] for part in np.array_split(r, 4)]
-
-    def evaluate_parts(self, theta: np.ndarray) -> np.ndarray:
-        return np.array([float(np.sum(r ** 2)) for r in self.residuals(theta)])
-
-    def __call__(self, theta: np.ndarray) -> float:
-        return float(self.evaluate_parts(theta).sum())
-
-    def evaluate_batch(self, thetas: np.ndarray, *, on_result: OnResult | None = None) -> BatchResult:
-        rows = [evaluate_row(self, t) for t in np.atleast_2d(thetas)]
-        for k, row in enumerate(rows):
-            if on_result is not None:
-                on_result(k, *row)
-        return BatchResult.from_rows(rows, 4)
-
-    def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
-        return [residual_row(self, t) for t in np.atleast_2d(thetas)]
-
-    def fingerprint(self) -> dict[str, object]:
-        return {"kind": "linear-local-test", "y": self.y.tolist()}
+        super().__init__(A, y, segments=4, noise_floor=SIGMA ** 2)
 
 
 def _problem(seed: int, columns: np.ndarray | None = None) -> tuple[Linear, np.ndarray]:
@@ -172,11 +137,10 @@ class Saturating(Linear):
         super().__init__(A, y)
         self.theta0, self.c = theta0, c
 
-    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
+    def mean(self, theta: np.ndarray) -> np.ndarray:
         h = np.asarray(theta, float).copy()
         h[0] = self.theta0[0] + self.c * np.tanh((h[0] - self.theta0[0]) / self.c)
-        r = self.y - self.A @ h
-        return [part[:, None] for part in np.array_split(r, 4)]
+        return self.A @ h
 
 
 def test_e_measures_its_own_curvature_and_only_ever_lowers_f() -> None:

@@ -6,6 +6,7 @@ import pytest
 import xarray as xr
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from linear_objective import LinearObjective
 from scipy.stats import truncnorm
 
 from belief import Belief
@@ -17,7 +18,6 @@ from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.spread import CellSpread
 from embeddings import Identity
 from physics import ParameterSpace
-from physics.objective import BatchResult, OnResult, evaluate_row, residual_row
 from physics.parameters import Parameter
 
 
@@ -98,56 +98,13 @@ def test_a_belief_keeps_its_spread_through_a_file(tmp_path) -> None:
         CellSpread(0, (-0.1, 0.1))
 
 
-class Linear:
-    """E(θ) = ||y − Aθ||² over the unit box, σ² known: the local std is exact, σ sqrt diag (AᵀA)⁻¹."""
-
-    segments = ("w0",)
-
-    def __init__(self, A: np.ndarray, y: np.ndarray, sigma: float) -> None:
-        self.A, self.y, self.sigma, self.space = A, y, sigma, _space(A.shape[1])
-
-    @property
-    def n_observations(self) -> int:
-        return int(self.y.size)
-
-    @property
-    def noise_var(self) -> float:
-        return self.sigma ** 2
-
-    @property
-    def noise_floor(self) -> float:
-        return self.sigma ** 2
-
-    def residuals(self, theta: np.ndarray) -> list[np.ndarray]:
-        return [(self.y - self.A @ np.asarray(theta, float))[:, None]]
-
-    def evaluate_parts(self, theta: np.ndarray) -> np.ndarray:
-        return np.array([float(np.sum(self.residuals(theta)[0] ** 2))])
-
-    def __call__(self, theta: np.ndarray) -> float:
-        return float(self.evaluate_parts(theta).sum())
-
-    def evaluate_batch(self, thetas: np.ndarray, *, on_result: OnResult | None = None) -> BatchResult:
-        rows = [evaluate_row(self, t) for t in np.atleast_2d(thetas)]
-        for k, row in enumerate(rows):
-            if on_result is not None:
-                on_result(k, *row)
-        return BatchResult.from_rows(rows, 1)
-
-    def residuals_batch(self, thetas: np.ndarray) -> list[list[np.ndarray] | None]:
-        return [residual_row(self, t) for t in np.atleast_2d(thetas)]
-
-    def fingerprint(self) -> dict[str, object]:
-        return {"kind": "linear-test", "y": self.y.tolist(), "sigma": self.sigma}
-
-
 def test_a_warm_start_holding_all_of_p_gets_the_data_width_and_holds_the_truth() -> None:
     """A warm cell 0.7 local stds from the truth takes all of P (every cell evaluated, so no GP
     guess spreads it): its interval alone is one point that misses the truth; with the spread it
     is the data's width and holds it."""
     rng = np.random.default_rng(3)
     A, truth, sigma = rng.normal(size=(30, 2)), np.array([0.4, 0.6]), 0.01
-    obj = Linear(A, A @ truth + sigma * rng.normal(size=30), sigma)
+    obj = LinearObjective(A, A @ truth + sigma * rng.normal(size=30), noise_var=sigma ** 2, noise_floor=sigma ** 2)
     local_std = sigma * np.sqrt(np.diag(np.linalg.inv(A.T @ A)))
     warm = truth + 0.7 * local_std
     decoder = Identity(obj.space)
