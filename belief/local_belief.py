@@ -207,6 +207,18 @@ def towards_prior(centre: np.ndarray, directions: Directions) -> np.ndarray:
     return np.clip(centre + V @ (share * (V.T @ (0.5 - centre))), 0.0, 1.0)
 
 
+def _data_jacobian(information: np.ndarray, noise_var: float, prior_rows: np.ndarray | None,
+                   stretch: np.ndarray | None) -> np.ndarray:
+    """A Jacobian J' (D x D, unit box) whose J'ᵀJ'/σ² is the data's part of the information P uses:
+    S⁻¹ F S⁻¹ (F as E measured it, S the profiles' stretch) less the measurements' GᵀG, so that
+    what the data pin (belief.identifiability) is what P shows, not what the fit's Jacobian alone says."""
+    F = information if stretch is None else information / np.outer(np.maximum(stretch, 1.0), np.maximum(stretch, 1.0))
+    if prior_rows is not None:
+        F = F - prior_rows.T @ prior_rows
+    values, vectors = np.linalg.eigh(0.5 * (F + F.T))
+    return np.sqrt(np.clip(values, 0.0, None) * noise_var)[:, None] * vectors.T
+
+
 def _journal(journal: str | os.PathLike[str] | None) -> str | None:
     return None if journal is None else os.path.splitext(os.fspath(journal))[0] + "-local.sqlite"
 
@@ -265,9 +277,10 @@ def local_stage(objective: Objective, result: IdentificationResult, *, seed: int
                    proposer=BOProposer(seed, initial=WarmStart([middle], SobolDesign(seed))))
     belief = _belief(objective, decoder, grid, local, fit, scale, directions, level=level,
                      vcfg=verdict_config or VerdictConfig(), seed=seed, starts=starts, prior=prior)
+    stretch = None if profiles is None else profiles.stretch
     belief.attrs["identifiability"] = identifiability(
-        fit.step.jacobian, noise_var=scale.noise_var, space=space, theta=fit.step.theta, width=fit.step.width,
-        prior_rows=rows).as_dict()
+        _data_jacobian(curvature.information, scale.noise_var, rows, stretch), noise_var=scale.noise_var,
+        space=space, theta=fit.step.theta, width=fit.step.width, prior_rows=rows).as_dict()
     best_theta, best_error = result.best_theta, result.best_error
     candidates = [(fit.step.error, fit.step.theta), (local.best_error, np.asarray(local.best_theta.values))]
     error, theta = min(candidates, key=lambda c: c[0])

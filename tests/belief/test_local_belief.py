@@ -8,7 +8,7 @@ from linear_objective import LinearObjective
 from belief import Belief, identify
 from belief.curvature import secant_information
 from belief.errors import BeliefError
-from belief.local_belief import LocalConfig, fisher_information, pinned_directions, towards_prior
+from belief.local_belief import LocalConfig, _data_jacobian, fisher_information, pinned_directions, towards_prior
 from belief.spread import ComplementSpread
 from physics.measurements import Measurement, MeasurementPrior
 
@@ -174,3 +174,19 @@ def test_the_profile_leaves_a_quadratic_e_at_its_laplace_width() -> None:
     result = identify(obj, budget=12, seed=0, preset="bo-local", progress=False)
     profile = result.config["local_stage"]["profile"]
     assert np.all(np.array(profile["stretch"]) < 1.15) and profile["evaluations"] > 1 + 2 * 3
+
+
+def test_what_the_data_pin_is_what_p_shows() -> None:
+    """The identifiability map reads the information P was built from: E's measured curvature,
+    widened by the profiles, less the measurements (its Jacobian J' gives J'ᵀJ'/σ² = S⁻¹FS⁻¹ − GᵀG);
+    on a linear model its marginal widths are P's."""
+    rng = np.random.default_rng(4)
+    B = rng.normal(size=(3, 3))
+    F, G, stretch = B.T @ B * 50 + 5 * np.eye(3), rng.normal(size=(1, 3)), np.array([1.0, 2.0, 1.5])
+    J = _data_jacobian(F, 0.3, G, stretch)
+    np.testing.assert_allclose(J.T @ J / 0.3, F / np.outer(stretch, stretch) - G.T @ G, atol=1e-9)
+    obj, _ = _problem(11)
+    result = identify(obj, budget=12, seed=0, preset="bo-local", progress=False)
+    pct = np.array(result.identifiability.marginal_pct)
+    std = 100 * result.belief.marginals()["std"].values / 0.5
+    np.testing.assert_allclose(pct, std, rtol=0.1)
