@@ -86,13 +86,16 @@ def _note(text: str) -> None:
     print(f"tensegrid diagnose: note: {text}", file=sys.stderr)
 
 
-def _check_prior_box(args: argparse.Namespace) -> None:
-    """Validate --nominal, --bounds and --params; a box other than the default is refused, not ignored:
-    criticism.diagnose identifies in the T6's default box (it takes no parameter space)."""
+def _prior_box(args: argparse.Namespace) -> ParameterSpace:
+    """The T6's prior box from --nominal, --bounds and --params (physics.prior_box, as identify reads
+    them); printed when it differs from the default, so the report's reader sees the box the run used."""
     default = ParameterSpace.t6()
-    if box_changes(prior_box_from_args(args, default), default):
-        raise CriticismError("diagnose identifies in the default prior box only (criticism.diagnose takes no "
-                             "parameter space yet); drop --nominal/--bounds/--params, or use tensegrid identify.")
+    space = prior_box_from_args(args, default)
+    changes = box_changes(space, default)
+    if changes:
+        print(f"prior box: {len(changes)} of {space.dim} parameters differ from the default:\n  "
+              + "\n  ".join(changes))
+    return space
 
 
 def _criticism(fit_rounds: int | None) -> CriticismConfig:
@@ -124,10 +127,10 @@ def run_diagnose(args: argparse.Namespace) -> int:
     and write the report (report.txt, diagnosis.json, model.json, figures) to ``--out``; returns the exit status 0.
     Nothing is written before the inputs are valid; a journal of another problem is set aside unless --resume."""
     check_output_dir(args.out)
-    _check_prior_box(args)
+    space = _prior_box(args)                          # ParameterError (exit 2) before the data are loaded
     data = [load_trajectory(path) for path in args.data]
     if not args.skip_checks:                          # DataCheckError (exit 2) before any identification
-        require_diagnosable(preflight(data, args.data, "diagnose"))
+        require_diagnosable(preflight(data, args.data, "diagnose", space))
     options = dt_option(getattr(args, "dt", None), data, name="--dt")   # StepSizeError before any identification
     for path, ds in zip(args.data, data, strict=True):
         print(f"{path}: " + "; ".join(describe_trajectory(ds)))
@@ -140,7 +143,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     with output_dir(args.out):          # removed again if the run fails before writing into it
         diagnosis = run_with_journals(
             lambda: diagnose(data, held_out=args.held_out, effects=effects, config=config, journal_dir=args.out,
-                             options=options, progress=not args.no_progress),
+                             options=options, progress=not args.no_progress, space=space, say=print),
             resume=args.resume, say=_note)
     print(diagnosis_text(diagnosis))
     for path in [*write_report(diagnosis, data, args.out), write_diagnose_report(args.out, diagnosis, data, args)]:

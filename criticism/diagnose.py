@@ -35,7 +35,7 @@ builds up, while over one sample sensor noise dominates.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -56,6 +56,7 @@ from criticism.errors import CriticismError
 from criticism.mismatch import MismatchConfig, MismatchReport, superseded
 from criticism.residuals import residual_dataset, residual_summary
 from criticism.revisit import Revisit, chosen, revisit_stage
+from criticism.run_estimate import Announcer, run_estimate
 from criticism.search import Criticism, CriticismConfig, criticize
 from criticism.stage_journal import journalled_stage
 from embeddings import Identity
@@ -311,14 +312,17 @@ def _warm(stage: MismatchReport | None, shown: Sequence[Effect]) -> np.ndarray |
 def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | None = None,
              effects: Sequence[Effect] | None = None, config: DiagnoseConfig = DiagnoseConfig(),
              journal_dir: str | os.PathLike[str] | None = None, options: ModelOptions | None = None,
-             n_workers: int = 2, progress: bool = True) -> Diagnosis:
+             n_workers: int = 2, progress: bool = True, space: ParameterSpace | None = None,
+             say: Callable[[str], None] | None = None) -> Diagnosis:
     """Run the loop of the module docstring on ``trajectories`` (xarray Datasets, docs/data-format.md).
 
     held_out: indices of the trajectories kept for scoring (default: the last third, at least one,
     when there are two or more); effects: the catalog to try (default physics.effects.catalog());
     journal_dir: the mismatch stage (criticism.stage_journal) and the identifications are journalled
-    there and resume after an interruption; options:
-    physics.ModelOptions of the model."""
+    there and resume after an interruption; options: physics.ModelOptions of the model; space: the
+    T6's prior box (default ParameterSpace.t6()), which every stage keeps as effects join the model
+    (TrajectoryObjective.with_effects); say: given, a rough run-time estimate and one line per stage
+    as it starts and ends go through it (criticism.run_estimate), whatever ``progress``."""
     data = list(trajectories)
     if not data:
         raise CriticismError("diagnose needs at least one trajectory.")
@@ -328,42 +332,50 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
     journals = Path(journal_dir) if journal_dir is not None else None
     if journals is not None:
         journals.mkdir(parents=True, exist_ok=True)
-    full = TrajectoryObjective(data, horizon=config.horizon, loss="squared", windows=config.windows, options=options,
-                           n_workers=n_workers)
+    full = TrajectoryObjective(data, space=space, horizon=config.horizon, loss="squared", windows=config.windows,
+                               options=options, n_workers=n_workers)
+    announce = Announcer(say)
     try:
         fit, held = split_masks(full.segments, held_idx)
         fit_objective = full.select(fit_idx)
-        contact = read_contact(data) if config.read_contact else None
-        read = contact.components if contact is not None else ()
-        tries = _with_read_bias(tries, contact)
-        stage = (journalled_stage(full.with_effects(read), fit, held_idx, config=config.mismatch,
-                                  journal_dir=journals, progress=progress)
-                 if config.mismatch is not None else None)
+        if say is not None:
+            announce.line(run_estimate(fit_objective, config, n_effects=len(tries)))
+        first = [n for n, on in (("contact reading", config.read_contact), ("mismatch stage", config.mismatch))
+                 if on] or ["first model"]
+        with announce.stage(" and ".join(first)):
+            contact = read_contact(data) if config.read_contact else None
+            read = contact.components if contact is not None else ()
+            tries = _with_read_bias(tries, contact)
+            stage = (journalled_stage(full.with_effects(read), fit, held_idx, config=config.mismatch,
+                                      journal_dir=journals, progress=progress)
+                     if config.mismatch is not None else None)
         shown = shown_at_rest(data, superseded(tries, stage.effects if stage else ())) if config.measure_at_rest else ()
         added: tuple[Effect, ...] = read + (stage.effects if stage is not None else ()) + shown
         tries = superseded(tries, added)
-        warm0 = _warm(stage, shown)
-        ident = identify_from(fit_objective.with_effects(added), warm0, budget=config.budget,
-                              candidates=config.candidates, seed=config.seed, journal=_journal(journals, 0),
-                              progress=progress)
+        with announce.stage("identification 0"):
+            ident = identify_from(fit_objective.with_effects(added), _warm(stage, shown), budget=config.budget,
+                                  candidates=config.candidates, seed=config.seed, journal=_journal(journals, 0),
+                                  progress=progress)
         first_belief, passes = ident.belief, []
         for k in range(config.passes):
             model = full.with_effects(added)
-            step = _criticize(model, ident, tries, (fit, held), config=config, progress=progress)
-            passes.append(step)
-            if stage is not None and config.mismatch is not None and config.revisit:
-                step.looks = revisit_stage(model, step.criticism, stage, fit, held, held_idx,
-                                           config=config.mismatch, criticism=config.criticism,
-                                           suspects=config.suspects, progress=progress,
-                                           journal_dir=None if journals is None else journals / f"revisit{k}")
+            with announce.stage(f"pass {k + 1} criticism"):
+                step = _criticize(model, ident, tries, (fit, held), config=config, progress=progress)
+                passes.append(step)
+                if stage is not None and config.mismatch is not None and config.revisit:
+                    step.looks = revisit_stage(model, step.criticism, stage, fit, held, held_idx,
+                                               config=config.mismatch, criticism=config.criticism,
+                                               suspects=config.suspects, progress=progress,
+                                               journal_dir=None if journals is None else journals / f"revisit{k}")
             row = step.found
             if row is None:
                 break
             added = added + step.additions
             tries = superseded(tries, added)
-            ident = identify_from(fit_objective.with_effects(added), np.asarray(row.theta, float),
-                                  budget=config.budget, candidates=config.candidates, seed=config.seed + k + 1,
-                                  journal=_journal(journals, k + 1), progress=progress)
+            with announce.stage(f"identification {k + 1} (with {row.name})"):
+                ident = identify_from(fit_objective.with_effects(added), np.asarray(row.theta, float),
+                                      budget=config.budget, candidates=config.candidates, seed=config.seed + k + 1,
+                                      journal=_journal(journals, k + 1), progress=progress)
             _record_after(step, row.name, full.with_effects(added), ident, held)
         settings = _settings(config, fit_idx, full.segments)
         return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown, contact)

@@ -317,10 +317,12 @@ class TrajectoryObjective:
 
     def with_effects(self, effects: Sequence[Effect]) -> TrajectoryObjective:
         """The same data and settings with the model's effects replaced by ``effects`` (θ then lives
-        in ``model_space(effects)``); shares this objective's worker pool."""
+        in ``model_space(effects)``, whose T6 parameters keep this objective's box: a prior box given
+        at construction holds as effects join); shares this objective's worker pool."""
+        n_base = self.space.dim - sum(len(e.parameters()) for e in self.effects)
         other = copy.copy(self)
         other.effects = tuple(effects)
-        other.space = model_space(other.effects)
+        other.space = model_space(other.effects, base=ParameterSpace(self.space.parameters[:n_base]))
         return other
 
     def select(self, trajectories: Sequence[int]) -> TrajectoryObjective:

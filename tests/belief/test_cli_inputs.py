@@ -201,12 +201,12 @@ def test_a_changed_box_runs_the_default_preset_without_its_latent_stage_with_one
     assert "Warning" not in captured.err and "warnings.warn" not in captured.err
 
 
-def test_diagnose_validates_the_box_and_refuses_a_changed_one(tmp_path, data, capsys) -> None:
+def test_diagnose_validates_the_box_like_identify(tmp_path, data, capsys) -> None:
     out = tmp_path / "d"
     assert main(["diagnose", *data, "--bounds", "rod_length=2:1", "--out", str(out)]) == 2
     _error(capsys, "tensegrid diagnose: error: rod_length: lower bound 2.0 must be below upper bound 1.0")
-    assert main(["diagnose", *data, "--nominal", "rod_length=1.8", "--out", str(out)]) == 2
-    _error(capsys, "diagnose identifies in the default prior box only")
+    assert main(["diagnose", *data, "--bounds", "rod_length=1500:1900", "--out", str(out)]) == 2
+    _error(capsys, "give --bounds rod_length=1.5:1.9")
     assert main(["diagnose", *data, "--budget", "0", "--out", str(out)]) == 2
     _error(capsys, "budget >= 2")
     assert main(["diagnose", *data, "--fit-rounds", "0", "--out", str(out)]) == 2
