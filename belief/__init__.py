@@ -4,10 +4,11 @@ pinned at a bound of the box, evidence of model inadequacy), the identifiability
 data pin: directions, symmetries, inert parameters), the local stage at the data's resolution,
 the likelihood's scale measured from the data, noise rules for
 data with model error, proposers and the identification driver (Zhu et al. 2018, Algorithm 1),
-and its SQLite journal.
+its SQLite journal, and what to record next (the flop whose data would bring the most information).
 
-belief depends on embeddings (decoders) and physics (parameter spaces, errors); it never builds a
-simulator, it only calls an objective θ -> E(θ).
+belief depends on embeddings (decoders) and physics (parameter spaces, errors); it builds no
+simulator itself: it calls objectives θ -> E(θ), and for the next recording asks physics for the
+objective of candidate flops (physics.candidate_recordings).
 """
 from __future__ import annotations
 
@@ -30,6 +31,7 @@ from belief.identify import identify
 from belief.journal import Journal, Record
 from belief.least_squares import FitConfig, LocalStep, StepConfig, gauss_newton_fit, gauss_newton_step
 from belief.local_belief import LocalConfig, NoLocalStage, local_stage
+from belief.next_recording import DesignConfig, RecordingSuggestion, next_recording, suggest_recording
 from belief.noise import (
     DEFAULT_DISCREPANCY,
     NOISE_RULES,
@@ -75,5 +77,5 @@ __all__ = [
     "LocalStep", "StepConfig", "gauss_newton_step", "AT_BOUND_TOLERANCE", "AtBound", "at_bounds",
     "Direction", "Identifiability", "Symmetry", "identifiability",
     "FitConfig", "gauss_newton_fit", "LocalConfig", "NoLocalStage", "local_stage", "ScaleConfig", "Scale",
-    "calibrated_scale",
+    "calibrated_scale", "DesignConfig", "RecordingSuggestion", "next_recording", "suggest_recording",
 ]

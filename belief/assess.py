@@ -374,6 +374,7 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
     marg, local, extra, ratio, spread = refined.marg, refined.local, refined.conflicts, refined.ratio, refined.spread
     at_bound = _pinned(space, best.theta, local, marg, vcfg, ratio)
     verdicts, reasons = decide(marg, best_theta=fitted, verified=vmass, config=vcfg, local_ratio=ratio,
+                               reduced=decoder.dim < space.dim,
                                conflicts={**extra, **conflicts,
                                           **{a.name: because("at bound", a.reason()) for a in at_bound}})
     best_mass = float(p[best.cell])

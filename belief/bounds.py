@@ -3,7 +3,9 @@
 A fit confined to the box [lower, upper] that ends on the box's edge in parameter j says that the
 data would move θ_j further out if they could. The value there is the bound, not an estimate: the
 model may lack an effect (another engine's contact law, a sensor bias) that θ_j stands in for, or
-the box is too narrow. In the unit box u = (θ - lower) / (upper - lower) (physics.parameters)::
+the box is too narrow. This module cannot tell which; ``tensegrid diagnose`` tests it by re-fitting
+in a wider box (criticism.wider_box). In the unit box u = (θ - lower) / (upper - lower)
+(physics.parameters)::
 
     at the lower bound:  u_j <= tolerance          at the upper bound:  u_j >= 1 - tolerance
 
@@ -70,8 +72,8 @@ class AtBound:
     def reason(self) -> str:
         """The verdict reason of a pinned parameter (the "at bound" rule of belief.verdicts)."""
         return (f"pinned at the {self.side} bound {self.bound:.4g} by the {self.source}: the data push it out of "
-                "the box, so the value is the bound, not an estimate (the model may lack an effect, or the box "
-                "is too narrow)")
+                "the box, so the value is the bound, not an estimate (the model may lack an effect it stands in "
+                "for, or the box is too narrow; tensegrid diagnose tests which)")
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-able record (the Belief's attrs["at_bounds"], diagnosis.json)."""
@@ -144,17 +146,28 @@ def at_bounds(space: ParameterSpace, theta: np.ndarray | Sequence[float], *, tol
 
 
 def inadequacy_text(entries: Sequence[AtBound], *, after: str = "fitting",
-                    tolerance: float = AT_BOUND_TOLERANCE) -> str:
+                    tolerance: float = AT_BOUND_TOLERANCE, notes: Mapping[str, str] | None = None,
+                    closing: str | None = None) -> str:
     """The "Model inadequacy" block of a summary, one line per parameter; "" when ``entries`` is empty.
 
-    ``after``: what produced the values ("fitting", "the re-tuning"); ``tolerance``: the one of the test.
+    ``after``: what produced the values ("fitting", "the re-tuning"); ``tolerance``: the one of the test;
+    ``notes``: parameter name -> a line printed under its entry (what a test of it found,
+    criticism.wider_box); ``closing``: the block's last line (default: what is known without a test,
+    that the value is not an estimate and why it may sit there).
     """
     if not entries:
         return ""
     n = len(entries)
     head = (f"Model inadequacy: {n} parameter{' sits' if n == 1 else 's sit'} at a bound of the prior box after "
             f"{after} (within {100 * tolerance:g} % of the box width):")
-    lines = [head] + [f"  {e.describe()}; fitted {e.value:.5g} ({e.source})" for e in entries]
-    lines.append("The model may lack an effect, or the box is too narrow: "
-                 + ("this value is not an estimate." if n == 1 else "these values are not estimates."))
+    lines = [head]
+    for e in entries:
+        lines.append(f"  {e.describe()}; fitted {e.value:.5g} ({e.source})")
+        if notes and e.name in notes:
+            lines.append(f"    {notes[e.name]}")
+    if closing is None:
+        closing = ("The model may lack an effect " + ("this parameter stands" if n == 1 else "these parameters stand")
+                   + " in for, or the box is too narrow (`tensegrid diagnose` tests which): "
+                   + ("this value is not an estimate." if n == 1 else "these values are not estimates."))
+    lines.append(closing)
     return "\n".join(lines)

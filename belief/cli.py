@@ -17,23 +17,21 @@ decoder (``vae``, ``ae-dyn``, ``active``: ``--decoder-file FILE`` written by ``t
 train-embedding`` or ``decoder.save``). Several data files make one objective: E(θ) sums the
 one-step errors of all trajectories, each split into ``--windows`` segments.
 
-Writes ``DIR/result.nc`` (see ``IdentificationResult.save``), ``summary.txt`` and
-``marginals.csv``, ``history.csv``, ``error_vs_evaluations.png``, ``posterior_marginals.png``,
-``pairs.png`` (the most correlated parameters in pairs), ``report.html`` (one self-contained page
-to hand on: figures, verdicts, data checks, settings) (and ``posterior_2d.png`` for 2-D grids,
-``observed_vs_predicted.png`` with rollouts at the nominal, best and posterior-mean θ of the
-first trajectory for trajectory data), and journals to
-``DIR/journal.sqlite`` (the latent stage to ``DIR/journal-latent.sqlite``) so an interrupted run
-resumes when re-run; a journal of another problem is set aside (``journal.1.sqlite``) unless
-``--resume``. The prior box: ``--nominal NAME=VALUE``, ``--bounds NAME=LO:HI``, ``--params FILE``
-(physics.prior_box), saved as ``prior_box.json``. What you know: ``--measured NAME=VALUE+-SD`` (a parameter
-or rod_mass, total_mass, rod_inertia) and ``--fix NAME=VALUE`` (held, not identified), checked against the box before
-anything runs (physics.measurements) and recorded in result.nc and summary.txt; the fixed ones leave the search, the
-measured ones do not change P in this version. ``--effects A B`` or ``--model DIR/model.json``
-(written by ``tensegrid diagnose``: the components and effects it added) identify the T6 with those
-effects, their parameters in their own boxes (physics.model_file). When the data files carry the θ that generated
-them (simulated data do), the summary shows it next to P's intervals. The data files are checked
-first as by ``tensegrid check`` (docs/data-format.md): an error stops the run before any
+Writes ``DIR/result.nc`` (``IdentificationResult.save``), ``summary.txt``, ``marginals.csv``,
+``history.csv``, the figures (``error_vs_evaluations.png``, ``posterior_marginals.png``, ``pairs.png``,
+``posterior_2d.png`` for 2-D grids, ``observed_vs_predicted.png`` for trajectory data), ``report.html``
+(one self-contained page to hand on), for trajectory data ``next_recording.json`` (the flop to record
+next, belief.next_recording; ``--no-next`` skips it; ``tensegrid probe --next`` runs it), and
+journals (``journal.sqlite``, ``journal-latent.sqlite``) so an interrupted run resumes when re-run; a
+journal of another problem is set aside (``journal.1.sqlite``) unless ``--resume``. The prior box:
+``--nominal NAME=VALUE``, ``--bounds NAME=LO:HI``, ``--params FILE`` (physics.prior_box), saved as
+``prior_box.json``. What you know: ``--measured NAME=VALUE+-SD`` (a parameter or rod_mass,
+total_mass, rod_inertia) and ``--fix NAME=VALUE`` (held), checked against the box before anything
+runs (physics.measurements); the fixed ones leave the search, the measured ones do not change P in
+this version. ``--effects A B`` or ``--model DIR/model.json`` (from ``tensegrid diagnose``) identify
+the T6 with those effects (physics.model_file). When the data files carry the θ that generated them
+(simulated data do), the summary shows it. The data files are checked first as by ``tensegrid
+check`` (docs/data-format.md): an error stops the run before any
 evaluation, unless ``--skip-checks``.
 """
 from __future__ import annotations
@@ -44,6 +42,7 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
+from belief.cli_next import add_next_options
 from belief.noise import DEFAULT_DISCREPANCY, NOISE_RULES
 from belief.presets import DEFAULT_PRESET, PRESETS
 from physics.measurements import add_measurement_options
@@ -90,6 +89,7 @@ def register_identify(subparsers: argparse._SubParsersAction[Any]) -> None:
     run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     run.add_argument("--skip-checks", action="store_true",
                      help="do not stop on the data checks' errors (tensegrid check; docs/data-format.md)")
+    add_next_options(run)
     p.set_defaults(func=run_identify)
 
 
@@ -377,6 +377,7 @@ def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder
 
 def run_identify(args: argparse.Namespace) -> int:
     """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
+    from belief.cli_next import design_next, write_next
     from belief.cli_outputs import write_outputs
     from physics.errors import TensegridError
     from physics.outputs import check_output_dir, output_dir
@@ -397,9 +398,14 @@ def run_identify(args: argparse.Namespace) -> int:
         except TensegridError as exc:
             print(f"tensegrid identify: {exc}", file=sys.stderr)
             return 2
+        suggestion = None if args.no_next or not datasets else design_next(result, objective, known, say=_note)
+    if suggestion is not None:
+        result.config["next_recording"] = suggestion.as_dict()        # result.nc and report.html carry it
     write_outputs(args, result, decoder, grid, truth, datasets, effects, known=known)
     print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
     print("\n".join(filter(None, [result.summary(truth=truth), known.summary()])))
+    if suggestion is not None:
+        print("\n".join(write_next(args.out, suggestion)))
     print(f"wrote {args.out}/report.html (one page to hand on), result.nc, summary.txt, marginals.csv, history.csv, "
           "prior_box.json and figures")
     return 0

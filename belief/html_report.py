@@ -3,7 +3,7 @@ data URIs, inline CSS, nothing fetched from elsewhere (standard library only: ht
 
 - :class:`Page`: a generic page builder (sections, paragraphs, tables, embedded figures, code);
 - :func:`plain_verdict`: a parameter's verdict in plain words, from the Belief's numbers (interval
-  against the prior range, bounds, the best evaluation, the local fit), next to the technical reason;
+  against the prior range, bounds, the best evaluation, the local fit), next to the verdict's reason;
 - :func:`parameter_table`, :func:`data_section`, :func:`reproduce_section`, :func:`command_line`:
   the pieces both reports share (criticism.html_report builds the diagnose report from them);
 - :func:`write_identify_report`: ``DIR/report.html`` of ``tensegrid identify``: what was run (the
@@ -29,6 +29,7 @@ import numpy as np
 import xarray as xr
 
 from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
+from belief.verdicts import plain_reason, rule_of
 
 if TYPE_CHECKING:
     from belief.belief import Belief
@@ -63,14 +64,20 @@ _RULE_WORDS = {
 }
 
 
+def _text(text: str) -> str:
+    """``text`` escaped for HTML with its line breaks kept (a multi-line block such as the model
+    inadequacy one would otherwise run together into one line)."""
+    return html.escape(text).replace("\n", "<br>\n")
+
+
 def _num(value: float) -> str:
     """A number for a table: 4 significant digits, '-' for NaN."""
     return "-" if not np.isfinite(value) else f"{value:.4g}"
 
 
 class Page:
-    """An HTML page assembled in order: every text is escaped, figures are embedded as data URIs, and
-    :meth:`render` adds the inline style sheet and a table of contents of the sections."""
+    """An HTML page assembled in order: every text is escaped (its line breaks kept), figures are embedded
+    as data URIs, and :meth:`render` adds the inline style sheet and a table of contents of the sections."""
 
     def __init__(self, title: str) -> None:
         self.title = title
@@ -88,10 +95,10 @@ class Page:
     def paragraph(self, text: str, *, kind: str = "") -> None:
         """A paragraph; ``kind`` "warning" or "note" styles it."""
         cls = f' class="{kind}"' if kind else ""
-        self._body.append(f"<p{cls}>{html.escape(text)}</p>")
+        self._body.append(f"<p{cls}>{_text(text)}</p>")
 
     def bullets(self, items: Sequence[str]) -> None:
-        self._body.append("<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in items) + "</ul>")
+        self._body.append("<ul>" + "".join(f"<li>{_text(i)}</li>" for i in items) + "</ul>")
 
     def table(self, header: Sequence[str], rows: Sequence[Sequence[Any]], *,
               classes: Sequence[str] | None = None) -> None:
@@ -100,7 +107,7 @@ class Page:
         for k, row in enumerate(rows):
             cls = f' class="{classes[k]}"' if classes and classes[k] else ""
             cells = [f'<td class="num">{_num(float(c))}</td>' if isinstance(c, (int, float, np.number))
-                     else f"<td>{html.escape(str(c))}</td>" for c in row]
+                     else f"<td>{_text(str(c))}</td>" for c in row]
             out.append(f"<tr{cls}>" + "".join(cells) + "</tr>")
         self._body.append("".join(out) + "</table>")
 
@@ -154,15 +161,15 @@ def plain_verdict(belief: Belief, j: int, *, marginals: xr.Dataset | None = None
     if side:
         bound = space.lower[j] if side == "lower" else space.upper[j]
         return (f"The fit presses against the {side} end of its prior range ({bound:.4g}{unit}): the model cannot "
-                "fit the data inside the range (an effect is missing, or the range is too narrow), so this value is "
-                "the bound, not an estimate.")
+                "fit the data inside the range (an effect it stands in for is missing, or the range is too narrow; "
+                "tensegrid diagnose tests which), so this value is the bound, not an estimate.")
     if prior <= 0:
         return "The search never varied this parameter, so the data say nothing about it."
     if verdict == "identified":
         return f"The data pin it down: they narrow it to {share:.0%} of its prior range ({interval})."
     local = np.asarray((belief.attrs.get("local_fit") or {}).get("std", []), dtype=float)
     local_ratio = float(local[j]) / (width / np.sqrt(12.0)) if local.size == space.dim and width > 0 else 0.0
-    head = belief.reason[j].split(":", 1)[0]
+    head = rule_of(belief.reason[j])
     if head in _RULE_WORDS:
         why = _RULE_WORDS[head]
     elif local_ratio >= max(ratio, _BARELY):
@@ -174,7 +181,7 @@ def plain_verdict(belief: Belief, j: int, *, marginals: xr.Dataset | None = None
     elif ratio >= _BARELY:
         why = "the data barely narrow it"
     else:
-        why = "" if verdict == "weakly identified" else "a consistency check failed (see the technical reason)"
+        why = "" if verdict == "weakly identified" else "a consistency check failed (see each verdict's reason)"
     if verdict == "weakly identified":
         return (f"The data narrow it to {share:.0%} of its prior range ({interval}), not enough to rely on"
                 + (f": {why}." if why else "."))
@@ -185,7 +192,8 @@ def plain_verdict(belief: Belief, j: int, *, marginals: xr.Dataset | None = None
 def parameter_table(page: Page, belief: Belief, *, best: np.ndarray, best_label: str = "best θ",
                     truth: np.ndarray | None = None, evaluated: np.ndarray | None = None) -> None:
     """The results table (nominal, ``best``, posterior mean, credible interval, truth when known, verdict and
-    its plain words, one row per parameter) and the technical reasons (belief.verdicts) collapsed below it."""
+    its plain words, one row per parameter) and each verdict's reason (belief.verdicts.plain_reason) collapsed
+    below it."""
     m = belief.marginals()
     space = belief.space
     level = float(m.attrs.get("level", belief.level))
@@ -200,9 +208,9 @@ def parameter_table(page: Page, belief: Belief, *, best: np.ndarray, best_label:
         rows.append(row + [belief.verdict[j], plain_verdict(belief, j, marginals=m, evaluated=evaluated)])
         classes.append(belief.verdict[j].split()[0])
     page.table(header, rows, classes=classes)
-    page.details("Technical reasons (belief.verdicts)",
-                 "\n".join(f"{n}: {v}: {r}" for n, v, r in zip(space.names, belief.verdict, belief.reason,
-                                                                 strict=True)))
+    page.details("Each verdict's reason, with the numbers of its check",
+                 "\n".join(f"{n}: {v}: {plain_reason(r)}" for n, v, r in zip(space.names, belief.verdict, belief.reason,
+                                                                               strict=True)))
 
 
 def _sha256(path: str) -> str:
@@ -361,6 +369,10 @@ def write_identify_report(out: str | os.PathLike[str], result: IdentificationRes
     if pin is not None:
         page.subsection("What the data pin")
         page.code("\n".join(pin.lines()))
+    upcoming = result.config.get("next_recording")
+    if isinstance(upcoming, dict) and upcoming.get("lines"):
+        page.subsection("What to record next")
+        page.code("\n".join(str(line) for line in upcoming["lines"]))
     page.details("summary.txt", result.summary(truth=truth))
     page.section("Figures")
     for name, caption in _FIGURES:

@@ -46,7 +46,7 @@ from physics.parameters import ParameterSpace
 from physics.scaling import mass_exponents
 
 __all__ = ["DirectionKind", "SymmetryStatus", "Direction", "Symmetry", "Identifiability", "identifiability",
-           "SYMMETRY_RTOL", "INERT_RTOL", "MASS_FORCE"]
+           "direction_text", "SYMMETRY_RTOL", "INERT_RTOL", "MASS_FORCE"]
 
 DirectionKind = Literal["pinned", "weak", "free"]
 SymmetryStatus = Literal["exact", "near", "resolved"]
@@ -141,6 +141,13 @@ class Identifiability:
         if not set(self.inert) <= set(self.names):
             raise BeliefError(f"Identifiability.inert names {sorted(set(self.inert) - set(self.names))} "
                               "that are not parameters.")
+
+    def information(self) -> np.ndarray:
+        """F_x (D x D) in relative changes, rebuilt from the directions: Σ_k λ_k v_k v_kᵀ."""
+        if not self.directions:
+            return np.zeros((len(self.names), len(self.names)))
+        V = np.array([v.loadings for v in self.directions]).T
+        return (V * np.array([v.information for v in self.directions])) @ V.T
 
     def count(self, kind: DirectionKind) -> int:
         """How many directions are of ``kind``."""
@@ -252,7 +259,7 @@ def _direction(value: float, vector: np.ndarray, names: Sequence[str], half_box:
     kind: DirectionKind = "pinned" if width < pinned_pct else "weak" if width < box else "free"
     label = "the mass–force scale" if p_hat is not None and abs(float(v @ p_hat)) >= _LABELLED else ""
     return Direction(information=value, width_pct=float(width), box_pct=box,
-                     loadings=tuple(float(x) for x in v), text=_text(v, names), kind=kind, label=label)
+                     loadings=tuple(float(x) for x in v), text=direction_text(v, names), kind=kind, label=label)
 
 
 def _symmetry(name: str, p_hat: np.ndarray, F_x: np.ndarray, largest: float, half_box: np.ndarray) -> Symmetry:
@@ -272,7 +279,7 @@ def _box(v: np.ndarray, half_box: np.ndarray) -> float:
     return float(1.0 / np.sqrt(np.sum((v / half_box) ** 2)))
 
 
-def _text(v: np.ndarray, names: Sequence[str]) -> str:
+def direction_text(v: np.ndarray, names: Sequence[str]) -> str:
     """"+0.55 density −0.49 maxTens": loadings with |v_j| >= 0.2 (the top 3 when none is), largest first."""
     order = np.argsort(-np.abs(v), kind="stable")
     chosen = [j for j in order if abs(v[j]) >= _LOADING] or list(order[:3])

@@ -25,7 +25,7 @@ from belief.posterior import credible_region
 from belief.scale import Scale
 from physics.parameters import ParameterSpace
 
-__all__ = ["IdentificationResult", "history_dataset", "noise_text", "FORMAT"]
+__all__ = ["IdentificationResult", "history_dataset", "noise_text", "floor_set", "FORMAT"]
 
 FORMAT = "tensegrid.identification/2"
 
@@ -45,11 +45,23 @@ def noise_text(attrs: dict[str, Any]) -> str:
         return f"likelihood σ² = {sigma2:.4g} ({rule})"
     delta, seg = float(info["discrepancy"]), float(info["segment_discrepancy"])
     source = "the segments' disagreement" if seg >= delta else "the model-error floor δ_0"
-    floor_set = 0.5 * delta * float(attrs["best_error"]) >= float(sigma2) * (1.0 - 1e-9)
     why = (f"set by the discrepancy δ = {delta:.3g} ({source}): an error {delta:.0%} above the best costs one nat"
-           if floor_set else f"set by the residuals: {info['n_effective']:.4g} effective of {info['n_observations']} "
-           f"(δ = {delta:.3g} sets less)")
+           if floor_set(attrs) else f"set by the residuals: {info['n_effective']:.4g} effective of "
+           f"{info['n_observations']} (δ = {delta:.3g} sets less)")
     return f"likelihood σ² = {sigma2:.4g}, {why}"
+
+
+def floor_set(attrs: dict[str, Any]) -> bool:
+    """Whether a Belief's σ² (its attrs) was set by the model-error floor δ E_min / 2 (belief.noise's
+    "ess" rule, belief.scale's "calibrated"): such a σ² grows with E, and so with more data."""
+    sigma2, rule, info = attrs.get("noise_var"), attrs.get("noise_rule"), attrs.get("noise") or {}
+    if sigma2 is None:
+        return False
+    if rule == "calibrated" and "blocks_var" in info:
+        return Scale(**info).floor_set
+    if rule != "ess" or "discrepancy" not in info:
+        return False
+    return 0.5 * float(info["discrepancy"]) * float(attrs["best_error"]) >= float(sigma2) * (1.0 - 1e-9)
 
 
 def history_dataset(records: Sequence[Record], *, latent_names: tuple[str, ...], space: ParameterSpace,
@@ -178,7 +190,7 @@ class IdentificationResult:
                      f"on a grid over the {stage['directions']} directions the data pin most ({stage['evaluations']} "
                      "evaluations of E); both outside the budget")
         elif "error" in local:
-            tail += (f"\nlocal fit over all parameters (the local refit verdict rule): one Gauss-Newton step from "
+            tail += (f"\nlocal fit over all parameters: one Gauss-Newton step from "
                      f"the best evaluation gives E {local['error']:.6g} ({local['evaluations']} evaluations of E)")
         noise = noise_text(self.belief.attrs)
         tail += f"\n{noise}" if noise else ""

@@ -93,13 +93,18 @@ class Scale:
         """JSON-able record (for a Belief's attrs)."""
         return dict(vars(self))
 
+    @property
+    def floor_set(self) -> bool:
+        """Whether the model-error floor δ E(θ̂) / 2 set σ² (it then grows with E, so with more data)."""
+        return self.discrepancy > 0 and self.noise_var >= 0.5 * self.discrepancy * self.error * (1 - 1e-9)
+
     def text(self) -> str:
         """One line for a summary: what set σ² and why."""
         if self.adequacy is None:
             fit = "the objective cannot say what its noise leaves"
         else:
             fit = (f"the best fit's residuals are {self.adequacy:.2f} times what the measured noise alone leaves")
-        if self.discrepancy > 0 and self.noise_var >= 0.5 * self.discrepancy * self.error * (1 - 1e-9):
+        if self.floor_set:
             return (f"likelihood σ² = {self.noise_var:.4g}, set by model error: {fit}, so an error "
                     f"{100 * self.discrepancy:.0f}% above the best costs one nat (δ = {self.discrepancy:.3g}).")
         if self.noise_var > self.blocks_var:

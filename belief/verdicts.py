@@ -5,8 +5,9 @@ A narrow marginal is necessary but not sufficient. Under model error, or with a 
 for the dimension, P can be narrow in the wrong place (the GP's lower tail on cells nobody
 evaluated, or a minimum of E that model error moved away from the truth). The verdict of
 parameter j therefore combines the checks below, each a named rule (:data:`RULES`); every reason
-starts with the name of the rule that decided it ("narrowing: std is 17 % of the prior's ...",
-:func:`rule_of`), and ``Belief.rules`` lists them.
+starts with the name of the rule that decided it, then says why in plain words ("narrowing: the
+data narrow it to 17% of its prior spread ..."). The rule names are for code (:func:`rule_of`,
+``Belief.rules``); a user reads :func:`plain_reason`, the words alone.
 
 - **reach** (checked first): reach_j = prior_std_j / (width_j / √12), the spread of θ_j over the
   decoded cells relative to a uniform spread over its box. A decoder that varies θ_j over only a
@@ -73,40 +74,13 @@ import xarray as xr
 
 from belief.bounds import AT_BOUND_TOLERANCE, AtBound
 from belief.errors import BeliefError
+from belief.reasons import RULES, because, narrowed, plain_reason, rule_of, share_of
 
-__all__ = ["VERDICTS", "RULES", "because", "rule_of", "VerdictConfig", "reach_reason", "default_verdicts",
-           "loglik_sd", "verified_mass", "segment_conflicts", "refit_conflicts", "pinned", "unsupported", "trust_note",
-           "decide", "budget_warning"]
+__all__ = ["VERDICTS", "RULES", "because", "rule_of", "plain_reason", "VerdictConfig", "reach_reason",
+           "default_verdicts", "loglik_sd", "verified_mass", "segment_conflicts", "refit_conflicts", "pinned",
+           "unsupported", "trust_note", "decide", "budget_warning"]
 
 VERDICTS = ("identified", "weakly identified", "not identified")
-
-#: the verdict rules in the module docstring's order: name -> what it checks
-RULES: dict[str, str] = {
-    "reach": "the decoder varies the parameter over enough of its box to have tried other values",
-    "narrowing": "P's std over the prior's std, against identified_ratio and weak_ratio",
-    "local width": "the local posterior std over all parameters, when wider than P's",
-    "segment consistency": "segments that each narrow the parameter agree on its interval",
-    "verified mass": "how much of P lies on cells whose likelihood the GP knows",
-    "evaluated support": "the interval holds the best evaluated value",
-    "local refit": "a Gauss-Newton step from the best evaluation stays inside the interval",
-    "at bound": "the fitted value is not pinned at a bound of the box",
-    "structure": "the value does not hang on which other parts the model was given (applied by criticism)",
-}
-
-
-def because(rule: str, text: str) -> str:
-    """The reason ``"<rule>: <text>"`` of a verdict decided by ``rule`` (a key of :data:`RULES`)."""
-    if rule not in RULES:
-        raise BeliefError(f"unknown verdict rule {rule!r}; the rules are {list(RULES)}.")
-    return f"{rule}: {text}"
-
-
-def rule_of(reason: str) -> str:
-    """The rule that decided a verdict, read from its reason (:func:`because`), or "" for a reason
-    that names none (a Belief built by hand)."""
-    head = reason.split(":", 1)[0]
-    return head if head in RULES and ":" in reason else ""
-
 
 @dataclass(frozen=True)
 class VerdictConfig:
@@ -149,8 +123,8 @@ class VerdictConfig:
 
 def reach_reason(reach: float) -> str:
     """Why a parameter the decoder barely varies is not identified (the "reach" rule)."""
-    return because("reach", f"the decoder varies it over {reach:.0%} of a uniform spread over its box: values "
-                            "outside its image were never tried, so P cannot place the truth")
+    return because("reach", f"the search varied it over only {reach:.0%} of its box's spread: values elsewhere "
+                            "were never tried, so the data cannot say whether the truth lies there")
 
 
 def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
@@ -167,8 +141,7 @@ def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
     for std, prior, spread in zip(marg["std"].values, marg["prior_std"].values, reach, strict=True):
         if not prior > 0:
             verdicts.append(VERDICTS[2])
-            reasons.append(because("reach", "the decoder does not vary it over the cells (prior std 0): P says "
-                                   "nothing about it"))
+            reasons.append(because("reach", "the search never varied it, so the data say nothing about it"))
             continue
         if spread < cfg.min_reach:
             verdicts.append(VERDICTS[2])
@@ -177,8 +150,8 @@ def default_verdicts(marg: xr.Dataset) -> tuple[list[str], list[str]]:
         r = float(std / prior)
         verdicts.append(VERDICTS[0] if r < cfg.identified_ratio else VERDICTS[1] if r < cfg.weak_ratio else VERDICTS[2])
         reasons.append(because("narrowing", (
-            f"std is {r:.0%} of the prior's (std/prior_std = {r:.3g}; from P alone: identified below "
-            f"{cfg.identified_ratio:g}, weakly identified below {cfg.weak_ratio:g})")))
+            f"{narrowed(r)} (from the posterior alone: identified below {cfg.identified_ratio:.0%}, weakly "
+            f"identified below {cfg.weak_ratio:.0%})")))
     return verdicts, reasons
 
 
@@ -224,8 +197,9 @@ def segment_conflicts(segment_marginals: Mapping[str, xr.Dataset], *, identified
             for name in ma["parameter"].values[(narrow & apart).values]:
                 key = str(name)
                 if key not in out:
-                    out[key] = because("segment consistency", f"its best value moves between segments: {a} "
-                                       f"gives {_interval(ma, key)}, {b} gives {_interval(mb, key)}")
+                    out[key] = because("segment consistency", f"parts of the data disagree on it: part {a} "
+                                       f"gives {_interval(ma, key)}, part {b} gives {_interval(mb, key)}, so the "
+                                       "model does not fit them alike")
     return out
 
 
@@ -242,9 +216,10 @@ def refit_conflicts(marginals: xr.Dataset, theta: np.ndarray | Sequence[float], 
     share = gain / max(float(start_error), 1e-300)
     if noise_var is not None:
         score = gain / (2.0 * noise_var)
-        significant, how = score > nats or share > fraction, f"{score:.3g} nats, {share:.0%} of E"
+        significant = score > nats or share > fraction
+        how = f"{share:.0%} lower" + (", more than the noise explains" if score > nats else "")
     else:
-        significant, how = share > 0.01, f"{share:.1%} of E"
+        significant, how = share > 0.01, f"{share:.1%} lower"
     if not significant:
         return {}
     out: dict[str, str] = {}
@@ -253,9 +228,9 @@ def refit_conflicts(marginals: xr.Dataset, theta: np.ndarray | Sequence[float], 
         tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
         if not (lo - tol <= v <= hi + tol):
             out[name] = because("local refit", (
-                f"a Gauss-Newton step from the best evaluation lowers E from {start_error:.4g} to {error:.4g} ({how}) "
-                f"at {v:.4g}, outside the interval [{lo:.4g}, {hi:.4g}]: the search stopped short of the best fit, "
-                "so P is narrow in the wrong place"))
+                f"a local fit from the best evaluation lowers the error from {start_error:.4g} to {error:.4g} ({how}) "
+                f"at {v:.4g}, outside the interval [{lo:.4g}, {hi:.4g}]: the search stopped before the best fit, "
+                "so the interval sits in the wrong place"))
     return out
 
 
@@ -303,29 +278,33 @@ def unsupported(marginals: xr.Dataset, best_theta: np.ndarray | Sequence[float])
         tol = 1e-9 * max(abs(hi), abs(lo), 1e-300)
         if not (lo - tol <= best[j] <= hi + tol):
             out[name] = because("evaluated support", (
-                f"P contradicts its evaluations: the best evaluated value {best[j]:.4g} lies outside the interval "
-                f"[{lo:.4g}, {hi:.4g}], so P's mass rests on cells nobody evaluated"))
+                f"the posterior contradicts its evaluations: the best evaluated value {best[j]:.4g} lies outside the "
+                f"interval [{lo:.4g}, {hi:.4g}], so the interval rests on values nobody evaluated"))
     return out
 
 
-def _sharp_verdict(vmass: float, cfg: VerdictConfig, ratio: float, rule: str) -> tuple[str, str]:
-    """The verdict of a parameter narrowed below ``identified_ratio``: the "verified mass" rule caps it."""
+def _sharp_verdict(vmass: float, cfg: VerdictConfig, said: str, rule: str) -> tuple[str, str]:
+    """The verdict of a parameter narrowed below ``identified_ratio`` (``said``: by how much, in words):
+    the "verified mass" rule caps it."""
     if vmass < cfg.min_verified_mass:
         return "weakly identified", because("verified mass", (
-            f"std is {ratio:.0%} of the prior's, but only {vmass:.0%} of P's mass lies on cells whose likelihood "
-            f"the GP knows to {cfg.max_loglik_sd:g} nat: the interval rests on cells nobody evaluated"))
-    return "identified", because(rule, f"std is {ratio:.0%} of the prior's; {vmass:.0%} of P's mass verified by the "
-                                       "GP; the best evaluated value lies inside the interval")
+            f"{said}, but only {vmass:.0%} of the posterior lies where the error is known from "
+            "evaluations: the interval rests on guesses between them"))
+    return "identified", because(rule, f"{said}; {vmass:.0%} of the posterior lies where the error is "
+                                       "known from evaluations, and the best evaluation lies inside the interval")
 
 
-def _ratio(marg: xr.Dataset, j: int, local: float) -> tuple[float, str, str]:
+def _ratio(marg: xr.Dataset, j: int, local: float, *, reduced: bool = False) -> tuple[float, str, str]:
     """(narrowing ratio, rule, note): the larger of P's std/prior_std ("narrowing") and the local
-    ratio ("local width"), with a note when the local one is larger."""
+    ratio ("local width"), with a note when the local one is larger; it blames the decoder only when
+    ``reduced`` (a decoder of fewer dimensions than the parameters made P: it held the rest fixed)."""
     ratio = float(marg["std"].values[j] / max(float(marg["prior_std"].values[j]), 1e-300))
     if local <= ratio:
         return ratio, "narrowing", ""
-    return local, "local width", (f" (P alone gives {ratio:.0%}, but the local information over all parameters leaves "
-                   f"{local:.0%} of the box's std: the decoder holds fixed what trades off with it)")
+    alone = f"the posterior alone narrows it to {share_of(ratio, 'its prior spread')}, but " if ratio < 0.995 else ""
+    held = "; the search's decoder held those fixed, which made the posterior narrow" if reduced else ""
+    return local, "local width", (f" ({alone}a local fit over all parameters leaves it this wide: other parameters "
+                                  f"can make up for a change in it{held})")
 
 
 def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: np.ndarray | Sequence[float],
@@ -359,7 +338,8 @@ def trust_note(marginals: xr.Dataset, verdicts: Sequence[str], *, best_theta: np
 
 def decide(marginals: xr.Dataset, *, best_theta: np.ndarray | Sequence[float], verified: float,
            conflicts: Mapping[str, str] | None = None, config: VerdictConfig | None = None,
-           local_ratio: np.ndarray | Sequence[float] | None = None) -> tuple[list[str], list[str]]:
+           local_ratio: np.ndarray | Sequence[float] | None = None,
+           reduced: bool = False) -> tuple[list[str], list[str]]:
     """(verdicts, reasons), one per parameter of ``marginals`` (module docstring; "segment consistency",
     "local refit" and "at bound" enter through ``conflicts``; "evaluated support",
     :func:`unsupported`, applies to every parameter the data narrow). Every reason names its rule.
@@ -367,7 +347,8 @@ def decide(marginals: xr.Dataset, *, best_theta: np.ndarray | Sequence[float], v
     ``best_theta``: θ of the best evaluation (D,); ``verified``: P's verified mass in [0, 1];
     ``conflicts``: parameter -> reason (:func:`because`), from :func:`segment_conflicts`,
     :func:`refit_conflicts` or the "at bound" rule (:meth:`belief.bounds.AtBound.reason` of :func:`pinned`);
-    ``local_ratio``: (D,) local posterior std over the box's uniform std ("local width"), or None.
+    ``local_ratio``: (D,) local posterior std over the box's uniform std ("local width"), or None;
+    ``reduced``: P's cells come from a decoder of fewer dimensions than the parameters (a latent grid).
     """
     cfg = config or VerdictConfig()
     best = np.asarray(best_theta, dtype=float)
@@ -380,19 +361,20 @@ def decide(marginals: xr.Dataset, *, best_theta: np.ndarray | Sequence[float], v
     verdicts, reasons = [], []
     reach = marginals["reach"].values if "reach" in marginals else np.ones(len(names))
     for j, name in enumerate(names):
-        ratio, rule, note = _ratio(marginals, j, float(local[j]))
+        ratio, rule, note = _ratio(marginals, j, float(local[j]), reduced=reduced)
+        said = narrowed(ratio, "its box's spread" if rule == "local width" else "its prior spread")
         if reach[j] < cfg.min_reach:
             v, why = "not identified", reach_reason(float(reach[j]))
         elif name in conflicts:
             v, why = "not identified", conflicts[name]
         elif ratio >= cfg.weak_ratio:
-            v, why = "not identified", because(rule, f"std is {ratio:.0%} of the prior's: the data barely narrow it")
+            v, why = "not identified", because(rule, said + ("" if ratio >= 0.995 else ", too little"))
         elif name in contradicted:
-            v, why = "not identified", f"{contradicted[name]} (std is {ratio:.0%} of the prior's)"
+            v, why = "not identified", f"{contradicted[name]} ({said})"
         elif ratio >= cfg.identified_ratio:
-            v, why = "weakly identified", because(rule, f"std is {ratio:.0%} of the prior's")
+            v, why = "weakly identified", because(rule, f"{said}, not enough to rely on")
         else:
-            v, why = _sharp_verdict(verified, cfg, ratio, rule)
+            v, why = _sharp_verdict(verified, cfg, said, rule)
         verdicts.append(v)
         reasons.append(why + note)
     return verdicts, reasons

@@ -10,7 +10,8 @@ and whether adding that effect helps on held-out data.
 - :mod:`criticism.discrimination`: how far two contenders' fitted models predict apart, under the
   recorded flops and candidate ones (the flop that would tell them apart);
 - :mod:`criticism.diagnose`: the loop identify -> criticize -> add the effect -> re-identify (after
-  the mismatch stage and the effects the resting robot shows);
+  the mismatch stage and the effects the resting robot shows); :mod:`criticism.wider_box` tests the
+  parameters the re-tuning leaves at a bound: box too narrow, or compensation for what the model lacks;
 - :mod:`criticism.report`: the diagnosis as text, JSON and figures; :mod:`criticism.cli`: the
   ``tensegrid diagnose`` command.
 
@@ -29,6 +30,7 @@ from criticism.report import diagnosis_record, diagnosis_text, write_report
 from criticism.residuals import PHASES, PhaseRule, phases, residual_dataset, residual_summary
 from criticism.screening import fit_effect
 from criticism.search import Candidate, Criticism, CriticismConfig, criticize, polish
+from criticism.wider_box import BoundOutcome, WiderBoxCheck, WiderBoxConfig, check_wider_box
 
 __all__ = [
     "CriticismError", "Separation", "flop_candidates", "recorded_controllers", "separations",
@@ -36,4 +38,5 @@ __all__ = [
     "CriticismConfig", "Candidate", "Criticism", "criticize", "fit_effect", "polish", "replication_gains",
     "PHASES", "PhaseRule", "phases", "residual_dataset", "residual_summary",
     "diagnosis_text", "diagnosis_record", "write_report",
+    "BoundOutcome", "WiderBoxCheck", "WiderBoxConfig", "check_wider_box",
 ]

@@ -14,7 +14,10 @@ One pass on trajectories split into *fit* and *held-out* ones:
 Each pass also lists the parameters the re-tuning left at a bound of the box (belief.bounds):
 those it moved there from θ̂, and those the identification already found pinned there (the
 "at bound" verdict rule). A fit that ends on the box's edge would leave it if it could: model
-inadequacy, not estimates (:func:`retuned_at_bounds`).
+inadequacy, not estimates (criticism.wider_box.retuned_at_bounds). Each is tested by one re-fit in a
+box widened on its pinned side (criticism.wider_box): "box too narrow" when it moved past the old
+bound and the fit error dropped significantly, else "compensation" for a missing effect or an
+engine mismatch.
 
 Before the first identification, effects the data show directly are added without a search
 (:func:`shown_at_rest`: each catalog effect bound to the data, Effect.bind, that is then
@@ -44,7 +47,7 @@ import numpy as np
 import xarray as xr
 
 from belief.belief import Belief
-from belief.bounds import AT_BOUND_TOLERANCE, AtBound, at_bounds
+from belief.bounds import AT_BOUND_TOLERANCE, AtBound
 from belief.grid import SobolCandidates
 from belief.identify import identify
 from belief.posterior import PosteriorConfig
@@ -59,6 +62,7 @@ from criticism.revisit import Revisit, chosen, revisit_stage
 from criticism.run_estimate import Announcer, run_estimate
 from criticism.search import Criticism, CriticismConfig, criticize
 from criticism.stage_journal import journalled_stage
+from criticism.wider_box import WiderBoxCheck, WiderBoxConfig, check_wider_box, retuned_at_bounds, run_noise_var
 from embeddings import Identity
 from physics.effects import Effect, catalog, effect_from_config
 from physics.objective import Objective
@@ -86,7 +90,9 @@ class DiagnoseConfig:
     revisit: when criticism ranks an effect first without finding it, try the components the stage
     rejected again with that effect in the model (criticism.revisit); suspects: how many of the
     ranking's best effects get such a look, so that one hidden below a smaller one still gets it
-    (the pass takes the look that found its effect with the most evidence, revisit.chosen)."""
+    (the pass takes the look that found its effect with the most evidence, revisit.chosen);
+    wider_box: the test of the parameters the re-tuning left at a bound, a re-fit in a wider box
+    (criticism.wider_box; None: untested)."""
 
     passes: int = 2
     budget: int = 40
@@ -101,6 +107,7 @@ class DiagnoseConfig:
     read_contact: bool = False
     revisit: bool = True
     suspects: int = 3
+    wider_box: WiderBoxConfig | None = field(default_factory=WiderBoxConfig)
 
     def __post_init__(self) -> None:
         if (self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1
@@ -110,6 +117,9 @@ class DiagnoseConfig:
         if not (isinstance(self.bound_tolerance, (int, float)) and 0 <= self.bound_tolerance < 0.5):
             raise CriticismError(f"DiagnoseConfig.bound_tolerance must be a fraction of the box width in [0, 0.5), "
                                  f"got {self.bound_tolerance!r}.")
+        if self.wider_box is not None and not isinstance(self.wider_box, WiderBoxConfig):
+            raise CriticismError(f"DiagnoseConfig.wider_box must be a WiderBoxConfig or None (untested), got "
+                                 f"{type(self.wider_box).__name__}.")
 
 
 @dataclass
@@ -117,7 +127,8 @@ class Pass:
     """One pass: the model's effects, θ̃ (re-tuned by criticism) and its parameter names, the
     criticism, the held-out error per trajectory before, and (when an effect was added) θ̂ and the
     error after, and the Belief; at_bounds: the parameters the re-tuning left at a bound of the box
-    (:func:`retuned_at_bounds`)."""
+    (criticism.wider_box.retuned_at_bounds); wider_box: what re-fitting them in a wider box found
+    (criticism.wider_box.check_wider_box; None when none is pinned or the test is off)."""
 
     effects: tuple[str, ...]
     names: tuple[str, ...]
@@ -131,6 +142,7 @@ class Pass:
     belief_after: Belief | None = None
     at_bounds: tuple[AtBound, ...] = ()
     looks: tuple[Revisit, ...] = ()
+    wider_box: WiderBoxCheck | None = None
 
     @property
     def revisit(self) -> Revisit | None:
@@ -224,18 +236,6 @@ def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.nd
     window = np.array([int(s.split("/")[1][1:]) for s in segments])
     held = np.isin(traj, list(held_out)) if len(held_out) else window % 2 == 1
     return ~held, held
-
-
-def retuned_at_bounds(space: ParameterSpace, start: np.ndarray, retuned: np.ndarray, belief: Belief | None, *,
-                      tolerance: float = AT_BOUND_TOLERANCE) -> tuple[AtBound, ...]:
-    """The parameters at a bound of the re-tuned θ̃ (D,) that the re-tuning moved there from θ̂
-    (``start``, D,), or that the identification's ``belief`` already lists at that bound (the "at
-    bound" verdict rule). A value already on the edge at θ̂ that the data do not narrow is left out:
-    BO's best point can sit there by chance (belief.verdicts)."""
-    known = {(a.name, a.side) for a in (belief.at_bounds if belief is not None else ())}
-    moved = {a.name for a in at_bounds(space, retuned, tolerance=tolerance, start=start)}
-    found = at_bounds(space, retuned, tolerance=tolerance, source="re-tuning")
-    return tuple(a for a in found if a.name in moved or (a.name, a.side) in known)
 
 
 def _held_errors(objective: Objective, theta: np.ndarray, held: np.ndarray) -> dict[str, float]:
@@ -387,16 +387,20 @@ def _criticize(model: TrajectoryObjective, ident: IdentificationResult, tries: S
                masks: tuple[np.ndarray, np.ndarray], *, config: DiagnoseConfig, progress: bool) -> Pass:
     """One pass before anything is added: criticism of ``model`` at the identification's θ̂ over
     the catalog ``tries``, with the residual's structure, the parameters the re-tuning pinned at a
-    bound and the held-out error at the re-tuned θ̃; masks: (fit, held) over the segments."""
+    bound and their wider-box test, and the held-out error at the re-tuned θ̃; masks: (fit, held)
+    over the segments."""
     fit, held = masks
     theta = np.asarray(ident.best_theta, float)
     structure = residual_summary(residual_dataset(model, theta))
     crit = criticize(model, theta, fit=fit, held=held, effects=tries, config=config.criticism,
                      structure=structure, progress=progress)
     pinned = retuned_at_bounds(model.space, theta, crit.theta, ident.belief, tolerance=config.bound_tolerance)
+    tested = (None if config.wider_box is None else
+              check_wider_box(model, crit.theta, pinned, fit, noise_var=run_noise_var(ident.belief, model),
+                              config=config.wider_box))
     retuned = crit.theta          # re-tuned on the fit trajectories: the fair "before"
     return Pass(tuple(e.name for e in model.effects), model.space.names, retuned, crit,
-                _held_errors(model, retuned, held), at_bounds=pinned)
+                _held_errors(model, retuned, held), at_bounds=pinned, wider_box=tested)
 
 
 def _settings(config: DiagnoseConfig, fit_idx: Sequence[int], segments: Sequence[str]) -> dict[str, Any]:

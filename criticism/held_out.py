@@ -57,15 +57,20 @@ def _variant(objective: TrajectoryObjective, trajectories: Sequence[int], horizo
 
 def _drift(objective: TrajectoryObjective, theta: np.ndarray, k: int, at: float) -> float:
     """Mean node distance [m] between a free rollout from the first sample and trajectory k at ``at`` s
-    after its start (the last sample if shorter); inf if the rollout diverges."""
+    after its start (the last sample if shorter), at the nearest sample both have (the rollout runs on
+    through dropped frames, the recording has none there); inf if the rollout diverges."""
     ds = objective.trajectories[k]
     try:
-        pred = _variant(objective, [k], "rollout").predictions(theta)[0].values
+        pred = _variant(objective, [k], "rollout").predictions(theta)[0].transpose("time", "node", "axis").values
     except PhysicsError:   # a diverging simulation: the drift is unbounded
         return float("inf")
     t = np.asarray(ds["time"].values, float)
-    i = int(np.argmin(np.abs(t - t[0] - at)))
-    return float(np.linalg.norm(pred[i] - np.asarray(ds["nodes"].values[i], float), axis=1).mean())
+    observed = np.asarray(ds["nodes"].transpose("time", "node", "axis").values, float)
+    both = np.flatnonzero(np.isfinite(observed).all(axis=(1, 2)) & np.isfinite(pred).all(axis=(1, 2)))
+    if both.size == 0:
+        return float("nan")
+    i = int(both[np.argmin(np.abs(t[both] - t[0] - at))])
+    return float(np.linalg.norm(pred[i] - observed[i], axis=1).mean())
 
 
 def held_scores(objective: TrajectoryObjective, theta: np.ndarray, held: Sequence[int],

@@ -18,11 +18,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
+from belief.bounds import AT_BOUND_TOLERANCE
 from belief.html_report import Page, command_line, data_section, parameter_table, reproduce_section
 from criticism.candidate import place_text, values_text
 from criticism.diagnose import Diagnosis, Pass
 from criticism.report import diagnosis_text, estimate_verdict
+from criticism.wider_box import tested_text
+from physics.parameters import T6_NOMINAL
 
 __all__ = ["write_diagnose_report"]
 
@@ -82,8 +84,8 @@ def _pass(page: Page, k: int, p: Pass, d: Diagnosis) -> None:
                  estimate_verdict(e)]
                 for n, e in estimates.items()]
         page.table(["re-identified", "value", "interval", "verdict"], rows)
-    block = inadequacy_text(p.at_bounds, after="the re-tuning",
-                            tolerance=d.settings.get("bound_tolerance", AT_BOUND_TOLERANCE))
+    block = tested_text(p.at_bounds, p.wider_box, tolerance=d.settings.get("bound_tolerance", AT_BOUND_TOLERANCE),
+                        settable=T6_NOMINAL)
     if block:
         page.paragraph(block, kind="warning")
 

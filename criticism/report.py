@@ -25,12 +25,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from belief.bounds import AT_BOUND_TOLERANCE, inadequacy_text
-from belief.verdicts import rule_of
+from belief.bounds import AT_BOUND_TOLERANCE
+from belief.verdicts import plain_reason, rule_of
 from criticism.diagnose import Diagnosis, Pass
 from criticism.residuals import residual_dataset
+from criticism.wider_box import tested_text
 from physics.effects import Effect
 from physics.model_file import write_model_file
+from physics.parameters import T6_NOMINAL
 from physics.trajectory_objective import TrajectoryObjective
 
 if TYPE_CHECKING:
@@ -40,8 +42,9 @@ __all__ = ["diagnosis_text", "diagnosis_record", "write_report", "estimate_verdi
 
 
 def diagnosis_text(d: Diagnosis) -> str:
-    """Ranking per pass, the parameters the re-tuning left at a bound (model inadequacy) and the
-    held-out error before and after, as plain text (after the mismatch stage's, when it ran)."""
+    """Ranking per pass, the parameters the re-tuning left at a bound (model inadequacy) with what
+    re-fitting them in a wider box found (criticism.wider_box), and the held-out error before and
+    after, as plain text (after the mismatch stage's, when it ran)."""
     out = [] if d.contact is None else [d.contact.text()]
     out += [] if d.mismatch is None else [d.mismatch.text()]
     read = d.contact.bias if d.contact is not None else None
@@ -59,8 +62,8 @@ def diagnosis_text(d: Diagnosis) -> str:
             out.append(f"residual share by phase: {ph}; largest on nodes {s['top_nodes']}; "
                        f"by axis " + ", ".join(f"{a} {v:.0%}" for a, v in s["axis_share"].items())
                        + (f"; NaN samples skipped per trajectory {s['skipped']}" if any(s["skipped"]) else ""))
-        pinned = inadequacy_text(p.at_bounds, after="the re-tuning",
-                                 tolerance=d.settings.get("bound_tolerance", AT_BOUND_TOLERANCE))
+        pinned = tested_text(p.at_bounds, p.wider_box, tolerance=d.settings.get("bound_tolerance", AT_BOUND_TOLERANCE),
+                             settable=T6_NOMINAL)
         if pinned:
             out.append(pinned)
         out += _outcome(p)
@@ -94,9 +97,9 @@ def _outcome(p: Pass) -> list[str]:
 
 def estimate_verdict(e: dict[str, Any]) -> str:
     """An estimate's verdict (Pass.estimates), with "at lower/upper bound" when pinned there and
-    the reason when the "structure" rule decided it: a rule P cannot show needs its words."""
+    the reason, in plain words, when the "structure" rule decided it: a rule P cannot show needs its words."""
     side = f" (at {e['at_bound']} bound)" if e.get("at_bound") else ""
-    why = f" ({e['reason']})" if rule_of(str(e.get("reason", ""))) == "structure" else ""
+    why = f" ({plain_reason(str(e['reason']))})" if rule_of(str(e.get("reason", ""))) == "structure" else ""
     return f"{e.get('verdict', '-')}{side}{why}"
 
 
@@ -110,7 +113,8 @@ def _estimate(name: str, e: dict[str, Any]) -> str:
 
 def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
     """The JSON-able record of diagnosis.json: settings, and per pass the criticism, θ̃ ("theta"),
-    the parameters at a bound after the re-tuning ("at_bounds", belief.bounds.AtBound.as_dict),
+    the parameters at a bound after the re-tuning ("at_bounds", belief.bounds.AtBound.as_dict) and
+    their test in a wider box ("wider_box", criticism.wider_box.WiderBoxCheck.as_dict, or None),
     the held-out errors and the re-identified estimates, the second look the pass took ("revisit")
     and every second look ("looks", criticism.revisit); "mismatch": the mismatch stage's record or None;
     "measured": the configs of the effects measured at rest; "contact": the contact read from the
@@ -125,6 +129,7 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
                         else dict(zip(p.names_after, p.theta_after.tolist(), strict=True)),
                         "theta": dict(zip(p.names, p.theta.tolist(), strict=True)),
                         "at_bounds": [a.as_dict() for a in p.at_bounds],
+                        "wider_box": None if p.wider_box is None else p.wider_box.as_dict(),
                         "revisit": None if p.revisit is None else p.revisit.as_dict(),
                         "looks": [look.as_dict() for look in p.looks]} for p in d.passes]}
 

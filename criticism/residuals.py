@@ -8,7 +8,8 @@ Each sample gets one phase, from the data alone (no θ):
 - ``contact``: a node crosses the contact height h_c within ``contact_window`` samples (a cap
   lands or lifts off); h_c = median height of the three lowest nodes at the first finite sample
   + ``contact_margin``;
-- ``actuating``: a command changed within the last ``settle_time`` seconds (motors still move);
+- ``actuating``: a command changed within the last ``settle_time`` seconds (motors still move); a
+  sample without commands (a dropped frame) holds the last one sent, so a change across it counts;
 - ``rest``: neither.
 
 Samples whose residual is not finite (NaN observations, nothing predicted) are left out of every
@@ -23,6 +24,7 @@ import numpy as np
 import xarray as xr
 
 from physics.effect_objective import EffectObjective
+from physics.predictor import held_commands
 
 __all__ = ["PHASES", "PhaseRule", "phases", "residual_dataset", "residual_summary"]
 
@@ -41,12 +43,12 @@ class PhaseRule:
 def phases(ds: xr.Dataset, rule: PhaseRule = PhaseRule()) -> np.ndarray:
     """Phase label (T,) of every sample of one trajectory (module docstring), as strings of PHASES."""
     nodes = np.asarray(ds["nodes"].transpose("time", "node", "axis").values, float)
-    controls = np.asarray(ds["controls"].transpose("time", "cable").values, float)
+    controls = held_commands(np.asarray(ds["controls"].transpose("time", "cable").values, float))
     times = np.asarray(ds["time"].values, float)
     T = len(times)
     label = np.full(T, "rest", dtype=object)
     changed = np.zeros(T, bool)
-    changed[1:] = np.nanmax(np.abs(np.diff(controls, axis=0)), axis=1) > 1e-9
+    changed[1:] = (np.nan_to_num(np.abs(np.diff(controls, axis=0)), nan=0.0) > 1e-9).any(axis=1)
     change_times = times[changed]
     for i, t in enumerate(times):
         if np.any((change_times <= t + 1e-12) & (change_times > t - rule.settle_time)):

@@ -9,7 +9,9 @@ them by the time of one evaluation measured on the data before the first stage:
   rough figure, :data:`JACOBIANS_PER_ROUND` finite-difference Jacobians of D evaluations each;
 - the mismatch stage (criticism.mismatch): per round, one fit per component plus the null trial;
 - criticism (criticism.search), per pass: each effect's screen of ``grid + refine`` evaluations, then
-  ``joint`` joint fits and the re-tuning.
+  ``joint`` joint fits and the re-tuning;
+- the wider-box test of the parameters the re-tuning left at a bound (criticism.wider_box), per pass:
+  one re-fit, ``WiderBoxConfig.cost`` (counted as if every parameter were pinned on every pass).
 
 The second looks (criticism.revisit) are not counted: they run only when no effect is found. A fit
 that converges early makes fewer evaluations, so this is an upper figure of the order of the run, not
@@ -70,12 +72,14 @@ def _fit(local: LeastSquaresConfig, dim: int) -> int:
 
 def evaluations(config: DiagnoseConfig, *, dim: int, n_effects: int) -> int:
     """The evaluations the module docstring counts for ``config`` with ``n_effects`` effects to try:
-    identifications, the mismatch stage and criticism's screens and fits, in spaces of about ``dim``."""
+    identifications, the mismatch stage, criticism's screens and fits and the wider-box test, in spaces of
+    about ``dim``."""
     identifications = (1 + config.passes) * config.budget
     stage = config.mismatch
     fits = 0 if stage is None else stage.rounds * (len(stage.components) + 1) * _fit(stage.local, dim)
     crit = config.criticism
     per_pass = n_effects * (crit.grid + crit.refine) + (crit.joint + 1) * _fit(crit.local, dim)
+    per_pass += 0 if config.wider_box is None else config.wider_box.cost(dim)
     return identifications + fits + config.passes * per_pass
 
 

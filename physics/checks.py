@@ -3,9 +3,10 @@
 :func:`check_trajectory` reads a Dataset as it is and returns a :class:`DataReport` of typed
 :class:`Finding` s, each with what is wrong and the fix: units from the rod lengths and from the
 sampling interval, the up axis and the floor from the resting robot (physics.ground), node labels
-from rod rigidity and cable lengths (physics.labels), missing samples and jumps, and the
-controls' units, range and meaning. Severity ``error`` makes identification meaningless (wrong
-units, wrong up axis, swapped ends); ``warning`` biases or weakens it; ``info`` describes the file.
+from rod rigidity and cable lengths (physics.labels), missing samples and jumps, the controls'
+units, range and meaning, and whether the encoders' readings are there. Severity ``error`` makes
+identification meaningless (wrong units, wrong up axis, swapped ends); ``warning`` biases or
+weakens it; ``info`` describes the file.
 
 Lengths and times found in another unit (millimetres, milliseconds) are converted before the
 later checks, so one mistake gives one error. :func:`require_rods_in_box` holds an identification's
@@ -28,7 +29,7 @@ from physics.parameters import ParameterSpace
 
 __all__ = ["Finding", "DataReport", "DataCheckError", "check_trajectory", "check_file", "require_clean",
            "require_rods_in_box", "rest_length_range", "check_time", "check_length_units", "check_dropouts",
-           "check_jumps"]
+           "check_jumps", "check_readings"]
 
 #: Plausible sampling intervals of a recording [s] (10 Hz to 5 kHz).
 INTERVAL_RANGE = (2e-4, 0.1)
@@ -148,8 +149,10 @@ def check_length_units(rods: np.ndarray, space: ParameterSpace, declared: str | 
 
 
 def check_dropouts(nodes: np.ndarray, time: np.ndarray) -> list[Finding]:
-    """Samples with a NaN node coordinate (nodes T x 12 x 3, time T [s]): how many, how many only partly,
-    the longest run of consecutive ones and the node missing most often."""
+    """Samples with a NaN node coordinate (nodes T x 12 x 3, time T [s]): how many, how many are whole
+    frames lost (every node missing, as a dropped frame or a missing timestamp gives) and how many miss
+    only some nodes, the longest run of consecutive ones and, when some nodes drop out alone, the node
+    missing most often (in a whole lost frame every node is missing alike)."""
     missing = ~np.isfinite(nodes).all(axis=(1, 2))
     count = int(missing.sum())
     if not count:
@@ -157,13 +160,22 @@ def check_dropouts(nodes: np.ndarray, time: np.ndarray) -> list[Finding]:
     edges = np.diff(np.concatenate([[0], missing.astype(int), [0]]))
     longest = int(np.max(np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)))
     partial = int(np.sum(missing & np.isfinite(nodes).any(axis=(1, 2))))
-    per_node = (~np.isfinite(nodes).all(axis=2)).sum(axis=0)
+    per_node = (~np.isfinite(nodes).all(axis=2) & np.isfinite(nodes).any(axis=(1, 2))[:, None]).sum(axis=0)
     dt = float(np.median(np.diff(time)))
+    whole = count - partial
+    most = (f"; node {int(np.argmax(per_node))} is missing most often ({int(per_node.max())} of those samples)"
+            if partial else "")
+    frames = (f"{_count(whole, 'frame')} missing entirely (all nodes NaN), {_count(partial, 'frame')} with only "
+              "some nodes missing")
     return [Finding("dropouts", "warning", f"{count} of {len(time)} samples ({100 * count / len(time):.1f} %) miss "
-                    f"node positions (NaN; {partial} only some nodes); longest gap {longest} samples "
-                    f"({longest * dt:.3g} s); node {int(np.argmax(per_node))} is missing most ({int(per_node.max())}).",
+                    f"node positions: {frames}; longest gap {_count(longest, 'sample')} ({longest * dt:.3g} s){most}.",
                     "nothing to impute: NaN samples are skipped, never interpolated; a gap removes every prediction "
                     "that spans it, so re-record if gaps cover the motion.")]
+
+
+def _count(n: int, noun: str) -> str:
+    """"1 frame", "2 frames"."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def check_jumps(nodes: np.ndarray, time: np.ndarray) -> list[Finding]:
@@ -191,6 +203,21 @@ def check_jumps(nodes: np.ndarray, time: np.ndarray) -> list[Finding]:
                     f"{int(spikes.sum())} samples more than {1e3 * limit:.0f} mm off the midpoint of their "
                     f"neighbours; {worst}.",
                     "a marker glitched or was swapped there: set those samples to NaN (they are then skipped).")]
+
+
+def check_readings(ds: xr.Dataset) -> list[Finding]:
+    """An info finding when the file has no encoder readings (``rest_length`` absent or never
+    finite): with them the actuator's law (delay, rate limit, lag, tension limit, mis-zeroed
+    encoders) is measured from commands -> readings alone (physics.actuator_readings), before any
+    dynamics; without them the model's actuator is run along the observed cable lengths instead."""
+    if "rest_length" in ds.data_vars and np.isfinite(np.asarray(ds["rest_length"].values, dtype=float)).any():
+        return []
+    what = "no 'rest_length'" if "rest_length" not in ds.data_vars else "'rest_length' has no finite value"
+    return [Finding("rest-length-missing", "info", f"{what} (the motors' encoder readings): the actuator's law "
+                    "is left to the dynamics, with the model's actuator run along the observed cable lengths.",
+                    "record the encoder readings as 'rest_length' (time, cable) [m] (docs/data-format.md): with "
+                    "them the actuator (delay, rate limit, lag, tension limit, encoder offsets) is measured "
+                    "directly from commands -> readings (physics.actuator_readings.identify_actuator).")]
 
 
 _RANK = {"error": 0, "warning": 1, "info": 2}
@@ -226,6 +253,7 @@ def check_trajectory(ds: xr.Dataset, space: ParameterSpace | None = None, *, sou
     findings += check_dropouts(nodes, time)
     slack = _t6_box(space, "pretension")[0] / _t6_box(space, "stiffnessActive")[0]
     findings += check_controls(controls, ds.attrs.get("length_reference"), rest_length_range(space), nodes, time, slack)
+    findings += check_readings(ds)
     ordered = tuple(sorted(findings, key=lambda f: _RANK[f.severity]))
     return DataReport(ordered, source=source, length_scale=length_scale, time_scale=time_scale, rod_length=rod,
                       sample_interval=interval, ground=plane)

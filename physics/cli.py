@@ -3,6 +3,8 @@
 Sub-commands are registered through the entry-point group ``tensegrid.commands`` (pyproject.toml),
 so each package adds its own without physics importing the packages above it. Their descriptions
 are often module docstrings in reStructuredText; ``--help`` shows them as plain text (:func:`plain_text`).
+Every sub-command runs inside :func:`physics.cli_warnings.plain_warnings`: a Python warning shows as
+one plain note, never as a source line.
 """
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, entry_points, version
 from typing import Any
 
+from physics.cli_warnings import plain_warnings
 from physics.errors import TensegridError
 
 __all__ = ["main", "register_simulate", "build_parser", "plain_text"]
@@ -102,7 +105,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with plain_warnings(args.command):      # every sub-command: warnings as one plain note each
+            return int(args.func(args) or 0)
     except (TensegridError, argparse.ArgumentTypeError) as exc:
         print(f"tensegrid {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -28,7 +28,8 @@ if TYPE_CHECKING:                   # annotations; T6Model is imported at run ti
 
     from physics.tensegrity import T6Model
 
-__all__ = ["Controller", "HoldController", "ReplayController", "FlopController", "FlopPlan", "select_cables"]
+__all__ = ["Controller", "HoldController", "ReplayController", "FlopController", "FlopPlan", "select_cables",
+           "face_headings"]
 
 
 @runtime_checkable
@@ -87,6 +88,30 @@ class FlopPlan:
     base: tuple[int, int, int]
     effect_shorten: np.ndarray = field(repr=False)
     effect_lengthen: np.ndarray = field(repr=False)
+
+
+def face_headings(nodes: np.ndarray) -> np.ndarray:
+    """Headings [rad in [0, 2π)] of the outward normals of the resting face's three edges, shape ``3``,
+    sorted.
+
+    The resting face is the triangle of the three lowest of the 12 nodes (``nodes``: 12 x 3 [m]);
+    edge (a, b) has normal n ⟂ (b − a) in the ground plane pointing away from the triangle's centre.
+    A flop toward one of these headings tips the robot across that edge, so they are the distinct
+    flops of :class:`FlopController` from that face. Raises :class:`ControllerError` for other shapes.
+    """
+    x = np.asarray(nodes, dtype=float)
+    if x.shape != (12, 3) or not np.all(np.isfinite(x)):
+        raise ControllerError(f"nodes must be 12 x 3 finite node positions [m], got shape {x.shape}.")
+    tri = x[np.argsort(x[:, 2])[:3], :2]
+    centre = tri.mean(axis=0)
+    out = []
+    for k in range(3):
+        a, b = tri[k], tri[(k + 1) % 3]
+        normal = np.array([b[1] - a[1], a[0] - b[0]])
+        if normal @ (0.5 * (a + b) - centre) < 0:
+            normal = -normal
+        out.append(np.arctan2(normal[1], normal[0]))
+    return np.sort(np.mod(out, 2 * np.pi))
 
 
 def select_cables(plan: FlopPlan, n: int) -> FlopPlan:

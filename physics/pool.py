@@ -115,6 +115,14 @@ class DaskPool:
         """The local cluster this pool started, or None (serial, not started yet, or an address)."""
         return self._cluster
 
+    @property
+    def scheduler_address(self) -> str | None:
+        """The address of the scheduler batches run on (``address``, or the started local cluster's), so
+        another pool can share its workers; None when serial or not started yet."""
+        if self.address is not None:
+            return self.address
+        return None if self._cluster is None else str(self._cluster.scheduler_address)
+
     def _get_client(self) -> Any:
         if self._client is None:
             from distributed import Client, LocalCluster

@@ -37,7 +37,7 @@ from physics.state_estimation import DEFAULT_STATES, StateEstimator
 from physics.tensegrity import ModelOptions, T6Model
 
 __all__ = ["ObservedStates", "LENGTH_REFERENCES", "reconstruct_actuators", "actuator_states", "set_observed_state",
-           "predict", "physics_step", "step_options", "dt_option"]
+           "predict", "held_commands", "physics_step", "step_options", "dt_option"]
 
 #: What ``controls`` and ``rest_length`` mean: encoder readings zeroed at the nominal design, or true rest lengths.
 LENGTH_REFERENCES = ("encoder", "true")
@@ -205,17 +205,29 @@ def set_observed_state(model: T6Model, obs: ObservedStates, start: int, rest: np
         model.prime_commands(obs.times[past][ok], obs.controls[past][ok], obs.reference)
 
 
+def held_commands(controls: np.ndarray) -> np.ndarray:
+    """Controls (T x 24) with each missing command replaced by the last one sent before it (zero-order
+    hold: a dropped frame loses the record of a command, not the command); NaN before the first one."""
+    out = np.array(controls, dtype=float)
+    for i in range(1, len(out)):
+        bad = ~np.isfinite(out[i])
+        out[i, bad] = out[i - 1, bad]
+    return out
+
+
 def predict(model: T6Model, obs: ObservedStates, start: int, steps: int,
-            rest: np.ndarray, speed: np.ndarray) -> np.ndarray:
+            rest: np.ndarray, speed: np.ndarray, *, controls: np.ndarray | None = None) -> np.ndarray:
     """Predicted node positions (steps x 12 x 3) at samples start+1 .. start+steps.
 
     The simulator is set to the observed state at ``start`` (:func:`set_observed_state`) and the
-    recorded controls are replayed (held per interval). Raises PhysicsError if the simulation diverges.
+    recorded controls (or ``controls``, T x 24, e.g. :func:`held_commands`) are replayed (held per
+    interval). Raises PhysicsError if the simulation diverges.
     """
     substeps = int(round(obs.interval / model.options.dt))
     set_observed_state(model, obs, start, rest, speed)
     out = np.empty((steps, 12, 3))
+    sent = obs.controls if controls is None else controls
     for k in range(steps):
-        model.step(obs.controls[start + k], n=substeps, reference=obs.reference)
+        model.step(sent[start + k], n=substeps, reference=obs.reference)
         out[k] = model.node_positions()
     return model.observe(out)

@@ -42,7 +42,7 @@ from physics.checks_robot import ROD_TOLERANCE
 from physics.effects.base import Effect, model_space
 from physics.errors import ParameterError, TrajectoryFormatError
 from physics.labels import pair_distances, rod_lengths
-from physics.predictor import ObservedStates, actuator_states, set_observed_state, step_options
+from physics.predictor import ObservedStates, actuator_states, held_commands, set_observed_state, step_options
 from physics.state_estimation import StateEstimator
 from physics.tensegrity import ModelOptions, T6Model
 from physics.trajectory import make_trajectory, regular_clock, validate_trajectory
@@ -139,15 +139,6 @@ def _samples(obs: ObservedStates, duration: float | None) -> tuple[int, int]:
     return start, n
 
 
-def _held(controls: np.ndarray) -> np.ndarray:
-    """Controls (n x 24) with each missing command replaced by the last one sent (the first is finite)."""
-    out = np.array(controls, dtype=float)
-    for i in range(1, len(out)):
-        bad = ~np.isfinite(out[i])
-        out[i, bad] = out[i - 1, bad]
-    return out
-
-
 def _run(model: T6Model, controls: np.ndarray, substeps: int, reference: str) -> tuple[np.ndarray, ...]:
     """Record the model's observed nodes and node velocities (n x 12 x 3), rest-length readings (in
     ``reference``) and tensions (n x 24) at each of the n samples, sending ``controls`` (n x 24)
@@ -192,7 +183,7 @@ def replay(recording: xr.Dataset, theta: np.ndarray | Mapping[str, float] | None
     if obs.readings is not None and start == 0:
         speed[0] = speed[1]         # no reading before the first: the spool speed of the first interval
     set_observed_state(model, obs, start, rest, speed)
-    controls = _held(obs.controls[start:start + n])
+    controls = held_commands(obs.controls[start:start + n])     # the first is finite: a valid start
     substeps = int(round(obs.interval / model.options.dt))
     nodes, velocities, readings, tension = _run(model, controls, substeps, obs.reference)
     velocity_source: InitialVelocities = "recorded" if "velocities" in recording else "estimated"

@@ -309,7 +309,7 @@ def describe_trajectory(ds: xr.Dataset) -> list[str]:
     if bad_controls:
         lines.append(f"{bad_controls} samples with missing controls: the last command is held")
     if "velocities" not in ds:
-        lines.append("no node velocities: estimated from past positions (backward differences)")
+        lines.append("no node velocities: estimated from the positions around each sample (physics.state_estimation)")
     if "rest_length" not in ds:
         lines.append("no rest-length readings: the actuator state is reconstructed with the model's actuator")
     reference = ds.attrs.get("length_reference")

@@ -14,7 +14,10 @@ prediction runs before it is compared:
 - ``k``: non-overlapping windows of k samples, each started from the observed state and run
   open loop, every predicted sample compared;
 - ``"rollout"``: one free rollout from the first rebuildable state to the end — the "trajectory
-  error" of the paper's figures.
+  error" of the paper's figures. It needs no observation once started, so it runs on through
+  dropped frames (samples without nodes or commands), each missing command held at the last one
+  sent (physics.predictor.held_commands, as physics.replay does), and is compared only at the
+  samples recorded.
 
 Segments: the samples of trajectory k that are compared (those the prediction windows reach,
 fixed by the data and ``horizon``, not by θ) are split, in time order, into ``windows``
@@ -44,7 +47,7 @@ from physics.errors import ParameterError, TrajectoryFormatError
 from physics.objective import BatchResult, OnResult, Row, check_windows, evaluate_row, residual_row
 from physics.parameters import ParameterSpace
 from physics.pool import DaskPool, map_serial
-from physics.predictor import ObservedStates, actuator_states, predict, step_options
+from physics.predictor import ObservedStates, actuator_states, held_commands, predict, step_options
 from physics.state_estimation import DEFAULT_STATES, StateEstimator, position_noise
 from physics.tensegrity import ModelOptions, T6Model
 from physics.trajectory import regular_clock, validate_trajectory
@@ -122,6 +125,12 @@ class TrajectoryObjective:
     def address(self) -> str | None:
         """The dask scheduler address batches run on, or None for a local cluster / serial."""
         return self._pool.address
+
+    @property
+    def scheduler_address(self) -> str | None:
+        """The running scheduler's address (``address``, or the local cluster's once started), for another
+        objective to share the workers; None when batches run serially or none has run yet."""
+        return self._pool.scheduler_address
 
     @property
     def n_workers(self) -> int:
@@ -212,7 +221,9 @@ class TrajectoryObjective:
 
     def _predict(self, theta: np.ndarray) -> list[np.ndarray]:
         """Predicted nodes (T x 12 x 3) per trajectory, NaN where not predicted. One pass of the simulator
-        per trajectory, on one model per distinct options (physics step)."""
+        per trajectory, on one model per distinct options (physics step). A window ends before a sample
+        without commands; the free rollout runs on through dropped frames with the last command held
+        (module docstring)."""
         models: dict[ModelOptions, T6Model] = {}
         out = []
         for obs, options in zip(self._observed, self.model_options, strict=True):
@@ -221,13 +232,14 @@ class TrajectoryObjective:
             model = models[options]
             pred = np.full_like(obs.nodes, np.nan)
             rest, speed = actuator_states(obs, model, self.actuators)
-            controls_ok = np.isfinite(obs.controls).all(axis=1)
+            controls = held_commands(obs.controls) if self.horizon == "rollout" else obs.controls
+            controls_ok = np.isfinite(controls).all(axis=1)
             for start, steps in self._windows(obs):
                 if not controls_ok[start:start + steps].all():
                     steps = int(np.argmin(controls_ok[start:start + steps]))
                     if steps == 0:
                         continue
-                pred[start + 1:start + 1 + steps] = predict(model, obs, start, steps, rest, speed)
+                pred[start + 1:start + 1 + steps] = predict(model, obs, start, steps, rest, speed, controls=controls)
             out.append(pred)
         return out
 

@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 
 from physics.controllers import FlopController
+from physics.controllers import face_headings as physics_face_headings
+from physics.errors import ControllerError
 from physics.geometry import N_CABLES
 from planners.errors import ActionError
 
@@ -85,25 +87,13 @@ class FlopAction:
 
 
 def face_headings(nodes: np.ndarray) -> np.ndarray:
-    """Headings [rad in [0, 2π)] of the outward normals of the resting face's three edges, shape ``3``.
-
-    The resting face is the triangle of the three lowest of the 12 nodes (``nodes``: 12 x 3 [m]);
-    edge (a, b) has normal n ⟂ (b - a) in the ground plane pointing away from the triangle's centre.
-    A flop toward one of these headings tips the robot across that edge.
-    """
-    x = np.asarray(nodes, dtype=float)
-    if x.shape != (12, 3) or not np.all(np.isfinite(x)):
-        raise ActionError(f"nodes must be 12 x 3 finite node positions [m], got shape {x.shape}.")
-    tri = x[np.argsort(x[:, 2])[:3], :2]
-    centre = tri.mean(axis=0)
-    out = []
-    for k in range(3):
-        a, b = tri[k], tri[(k + 1) % 3]
-        normal = np.array([b[1] - a[1], a[0] - b[0]])
-        if normal @ (0.5 * (a + b) - centre) < 0:
-            normal = -normal
-        out.append(np.arctan2(normal[1], normal[0]))
-    return np.sort(np.mod(out, 2 * np.pi))
+    """Headings [rad in [0, 2π)] of the outward normals of the resting face's three edges, shape ``3``
+    (:func:`physics.controllers.face_headings`); raises :class:`ActionError` for nodes that are not
+    12 x 3 finite positions [m]."""
+    try:
+        return physics_face_headings(nodes)
+    except ControllerError as exc:
+        raise ActionError(str(exc)) from None
 
 
 def _headings(headings: int | Sequence[float] | np.ndarray | None, nodes: np.ndarray | None) -> np.ndarray:

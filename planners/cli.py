@@ -4,14 +4,16 @@
 
     tensegrid plan BELIEF.nc --goal X Y [--level A] [--samples K] [--risk cvar] [--horizon 2]
                    [--no-learn] [--truth T] [--compare] --out DIR
-    tensegrid probe BELIEF.nc [--truth T] [--steps N] [--cells M] [--sigma S] [--targets NAME ...] --out DIR
+    tensegrid probe BELIEF.nc [--truth T] [--steps N] [--cells M] [--sigma S] [--targets NAME ...]
+                    [--next DIR/next_recording.json] --out DIR
 
 The robot is simulated at the truth T: ``nominal`` (default), a JSON file ({name: value} or 15
 numbers in the order of the T6 space) or a trajectory file (netCDF) that carries the θ it was
 simulated at. ``plan`` flops the robot to the goal, replanning after each flop under the belief
 (re-weighed by the flops so far; ``--no-learn`` keeps P as loaded; with ``--compare`` also under
 the nominal θ and the MAP θ) and writes ``plan.json`` and ``plan.png``; ``probe`` runs active
-identification and writes ``probe.json``, ``probe.png`` and ``belief_probed.nc``.
+identification and writes ``probe.json``, ``probe.png`` and ``belief_probed.nc``; with ``--next`` it
+runs the motion ``tensegrid identify`` suggested recording next (belief.next_recording).
 """
 from __future__ import annotations
 
@@ -25,9 +27,10 @@ import numpy as np
 if TYPE_CHECKING:
     from belief.belief import Belief
     from belief.sampling import SamplingBelief
+    from planners.actions import FlopAction
     from planners.robust import PlanStep
 
-__all__ = ["register_plan", "register_probe", "read_truth"]
+__all__ = ["register_plan", "register_probe", "read_truth", "read_next"]
 
 
 def read_truth(value: str) -> np.ndarray:
@@ -106,6 +109,9 @@ def register_probe(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--sigma", type=float, default=0.02, help="observation noise per coordinate [m] (default 0.02)")
     p.add_argument("--min-gain", type=float, default=0.05, help="stop when no probe is expected to gain more [nats]")
     p.add_argument("--targets", nargs="*", default=[], help="stop once these parameters are identified")
+    p.add_argument("--next", default=None, metavar="FILE",
+                   help="probe with the motion tensegrid identify suggested (its next_recording.json) as the only "
+                        "candidate, instead of choosing among flops by expected gain")
     p.set_defaults(func=run_probe)
 
 
@@ -151,6 +157,21 @@ def run_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def read_next(path: str) -> FlopAction:
+    """The motion of a ``next_recording.json`` (belief.cli_next) as a FlopAction; PlannerError when the
+    file is missing or holds no motion."""
+    from planners.actions import FlopAction
+    from planners.errors import PlannerError
+
+    try:
+        with open(path) as fh:
+            motion = json.load(fh)["motion"]
+        return FlopAction(**{k: motion[k] for k in ("heading", "change", "n_cables", "start", "stop", "duration")})
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise PlannerError(f"--next {path}: not a next_recording.json of tensegrid identify ({exc}); give the file "
+                           "identify wrote into its --out.") from None
+
+
 def run_probe(args: argparse.Namespace) -> int:
     """Run ``tensegrid probe`` (module docstring)."""
     from physics.outputs import check_output_dir, make_output_dir
@@ -158,10 +179,11 @@ def run_probe(args: argparse.Namespace) -> int:
     from planners.probe import probe
 
     check_output_dir(args.out)
+    actions = None if args.next is None else (read_next(args.next),)
     belief = _load_belief(args.belief, args.group)
     truth = read_truth(args.truth)
     run = probe(belief, truth, steps=args.steps, cells=args.cells, sigma=args.sigma, seed=args.seed,
-                min_gain=args.min_gain, targets=args.targets, n_workers=args.workers)
+                min_gain=args.min_gain, targets=args.targets, actions=actions, n_workers=args.workers)
     make_output_dir(args.out)
     for k, s in enumerate(run.steps, start=1):
         print(f"probe {k}: {s.action.label}  expected gain {s.gain:.3f} nats  entropy {s.entropy_before:.3f} -> "

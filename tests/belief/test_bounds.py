@@ -195,7 +195,7 @@ def test_cli_prints_and_writes_the_inadequacy_block(tmp_path, capsys) -> None:
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command", required=True))
     argv = ["identify", str(path), "--preset", "bo", "--budget", "20", "--candidates", "1024",
-            "--out", str(tmp_path / "out"), "--no-progress"]
+            "--out", str(tmp_path / "out"), "--no-progress", "--no-next"]
     refused = parser.parse_args(argv)
     assert refused.func(refused) == 2 and "--bounds rod_length=" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()

@@ -106,7 +106,7 @@ def test_identify_t6_trajectory_file(tmp_path) -> None:
     path = save_trajectory(data, tmp_path / "obs.nc")
     out = tmp_path / "out"
     args = _parser().parse_args(["identify", str(path), "--preset", "latent", "--decoder", "rembo", "--dim", "3", "--points-per-dim", "5",
-                                 "--budget", "6", "--out", str(out), "--no-progress"])
+                                 "--budget", "6", "--out", str(out), "--no-progress", "--no-next"])
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
     assert res.n_evaluations == 6 and res.marginals.sizes["parameter"] == 15
@@ -129,7 +129,7 @@ def two_files(tmp_path_factory):
 def test_identify_several_trajectory_files_make_one_objective(tmp_path, two_files, capsys) -> None:
     out = tmp_path / "out"
     args = _parser().parse_args(["identify", *two_files, "--preset", "random", "--budget", "3", "--windows", "2",
-                                 "--out", str(out), "--no-progress"])
+                                 "--out", str(out), "--no-progress", "--no-next"])
     assert args.data == two_files and args.windows == 2
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")

@@ -23,7 +23,7 @@ from physics.importers import to_csv
 from physics.prior_box import prior_box
 from physics.trajectory import load_trajectory
 
-RUN = ["--preset", "random", "--budget", "2", "--no-progress"]
+RUN = ["--preset", "random", "--budget", "2", "--no-progress", "--no-next"]
 
 
 @pytest.fixture(scope="module")

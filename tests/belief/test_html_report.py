@@ -16,8 +16,10 @@ import xarray as xr
 
 from belief import Belief, Grid, IdentificationResult, SobolCandidates, at_bounds
 from belief.cli import register_identify
-from belief.html_report import command_line, plain_verdict
+from belief.bounds import inadequacy_text
+from belief.html_report import Page, command_line, plain_verdict
 from belief.plots import correlation, most_correlated, plot_error_trace, plot_marginals, plot_pairs, rollout_note
+from belief.verdicts import plain_reason, rule_of
 from embeddings import Identity
 from physics import ParameterSpace
 from physics.plotting import observed_vs_predicted_figure, plot_observed_vs_predicted
@@ -29,7 +31,7 @@ T6 = ParameterSpace.t6()
 def _identify(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["identify", *argv, "--no-progress"])
+    args = parser.parse_args(["identify", *argv, "--no-progress", "--no-next"])
     assert args.func(args) == 0
     return args
 
@@ -63,6 +65,8 @@ def test_identify_writes_a_self_contained_report_with_every_parameter(push_run) 
     for name, (verdict, _) in result.belief.verdicts.items():
         assert re.search(rf"<td>{name}</td>.*?<td>{verdict}</td>", page), name
     assert "of its prior range" in page                        # the verdicts in plain words
+    for reason in result.belief.reason:                         # each reason's words, its rule left to the API
+        assert rule_of(reason) and html.escape(plain_reason(reason)) in page and html.escape(reason) not in page
     assert html.escape(command_line("identify", push_run)) in page and "tensegrid identify --toy push" in page
     assert "Data and checks" in page and "the 1-D push toy" in page
     assert "How to reproduce" in page and "bo over the full space" in page       # the preset's stages
@@ -89,6 +93,21 @@ def test_command_line_spells_out_every_option_the_run_used() -> None:
                               journal=None, held_out=[], effects=["x", "y"], func=print, command="identify")
     assert command_line("identify", args) == ("tensegrid identify 'a b.nc' c.nc --preset bo --budget 10 "
                                               "--no-progress --effects x y")
+
+
+def test_multi_line_text_keeps_its_line_breaks() -> None:
+    """The model inadequacy block is one line per parameter: a paragraph, a bullet or a table cell
+    shows each on its own line, escaped."""
+    block = inadequacy_text(at_bounds(push_space(), np.array([1.5, 1.0])))
+    lines = block.split("\n")
+    assert len(lines) == 4                                       # the head, m, mu, what it means
+    page = Page("t")
+    page.paragraph(block, kind="warning")
+    page.bullets(["a < b\nc"])
+    page.table(["cell"], [["x & y\nz"]])
+    out = page.render()
+    assert '<p class="warning">' + "<br>\n".join(html.escape(line) for line in lines) + "</p>" in out
+    assert "<li>a &lt; b<br>\nc</li>" in out and "<td>x &amp; y<br>\nz</td>" in out
 
 
 def _push_belief(p: np.ndarray, verdicts: list[str], reasons: list[str], **attrs: object) -> Belief:

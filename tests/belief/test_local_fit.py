@@ -63,7 +63,9 @@ def test_the_local_fit_over_all_parameters_withdraws_the_verdict(line_runs) -> N
     runs, _ = line_runs
     belief = runs[True].belief
     m = belief.marginals().sel(parameter="m")
-    assert str(m["verdict"].values) == "not identified" and "local information" in str(m["reason"].values)
+    reason = str(m["reason"].values)
+    assert str(m["verdict"].values) == "not identified" and "a local fit over all parameters" in reason
+    assert "decoder held those fixed" in reason          # a 1-D decoder over 2 parameters made P
     local = belief.attrs["local_fit"]
     assert local["evaluations"] == 2 + 1 + 3 and local["error"] <= local["start_error"]
     assert local["std"][0] > (1.5 - 0.5) / np.sqrt(12)            # m's local std: beyond the prior's

@@ -1,16 +1,19 @@
 """Verdicts per parameter: narrow is not enough; P must be verified, supported and consistent."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import xarray as xr
 
+from belief.bounds import AtBound
 from belief.errors import BeliefError
 from belief.grid import Grid
 from belief.posterior import PosteriorConfig, marginals, posterior_from_surrogate
 from belief.surrogate import GPSurrogate
-from belief.verdicts import (RULES, VerdictConfig, because, budget_warning, decide, loglik_sd, refit_conflicts,
-                             rule_of, segment_conflicts, verified_mass)
+from belief.verdicts import (RULES, VerdictConfig, because, budget_warning, decide, default_verdicts, loglik_sd,
+                             plain_reason, refit_conflicts, rule_of, segment_conflicts, verified_mass)
 from embeddings import Identity
 from physics.parameters import Parameter, ParameterSpace
 
@@ -118,7 +121,7 @@ def test_a_parameter_the_decoder_barely_varies_is_not_identified() -> None:
     m = _marg(mean=[0.5, 0.5], std=[0.01, 0.01], lower=[0.48, 0.48], upper=[0.52, 0.52]).assign(
         reach=("parameter", [1.0, 0.2]))
     v, why = decide(m, best_theta=[0.5, 0.5], verified=0.9)
-    assert v == ["identified", "not identified"] and "varies it over 20%" in why[1]
+    assert v == ["identified", "not identified"] and "varied it over only 20%" in why[1]
     with pytest.raises(BeliefError, match="min_reach"):
         VerdictConfig(min_reach=1.5)
 
@@ -135,12 +138,12 @@ def test_a_significantly_better_local_fit_outside_the_interval_is_a_conflict() -
     """Rule 5a: θ′ beats θ̂ by 5 nats; x0's interval excludes θ′_0, x1's contains θ′_1."""
     m = _marg(mean=[0.5, 0.5], std=[0.01, 0.01], lower=[0.48, 0.48], upper=[0.52, 0.52])
     out = refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.1, noise_var=0.01, nats=3.0)
-    assert list(out) == ["x0"] and "5 nats" in out["x0"] and "0.6" in out["x0"]
+    assert list(out) == ["x0"] and "more than the noise explains" in out["x0"] and "0.6" in out["x0"]
     assert refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.04, noise_var=0.01, nats=3.0) == {}   # 2 nats
     assert list(refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.1, noise_var=None, nats=3.0)) == ["x0"]
     assert refit_conflicts(m, [0.6, 0.5], error=1.0, start_error=1.005, noise_var=None, nats=3.0) == {}
     v, why = decide(m, best_theta=[0.5, 0.5], verified=0.9, conflicts=out)
-    assert v == ["not identified", "identified"] and "Gauss-Newton" in why[0]
+    assert v == ["not identified", "identified"] and "a local fit from the best evaluation" in why[0]
     with pytest.raises(BeliefError, match="refit_nats"):
         VerdictConfig(refit_nats=0.0)
 
@@ -150,7 +153,7 @@ def test_a_local_step_that_halves_e_is_a_conflict_whatever_the_estimated_noise()
     a step that removes 73 % of E counts by its share; one that removes 40 % does not."""
     m = _marg(mean=[0.5, 0.5], std=[0.01, 0.01], lower=[0.48, 0.48], upper=[0.52, 0.52])
     out = refit_conflicts(m, [0.6, 0.5], error=0.27, start_error=1.0, noise_var=0.2, nats=3.0)
-    assert list(out) == ["x0"] and "73% of E" in out["x0"]
+    assert list(out) == ["x0"] and "73% lower" in out["x0"]
     assert refit_conflicts(m, [0.6, 0.5], error=0.6, start_error=1.0, noise_var=0.2, nats=3.0) == {}
     assert refit_conflicts(m, [0.6, 0.5], error=0.6, start_error=1.0, noise_var=0.2, nats=3.0, fraction=0.3) != {}
     with pytest.raises(BeliefError, match="refit_fraction"):
@@ -162,4 +165,53 @@ def test_the_local_ratio_over_all_parameters_caps_the_narrowing() -> None:
     m = _marg(mean=[0.5, 0.5, 0.5], std=[0.01, 0.01, 0.01], lower=[0.48, 0.48, 0.48], upper=[0.52, 0.52, 0.52])
     v, why = decide(m, best_theta=[0.5, 0.5, 0.5], verified=0.9, local_ratio=[0.01, 0.6, 0.9])
     assert v == ["identified", "weakly identified", "not identified"]
-    assert "local information" in why[1] and "local information" not in why[0]
+    assert "a local fit over all parameters" in why[1] and "local fit" not in why[0]
+
+
+#: words of the rules' arithmetic that a user reading a reason cannot know
+_JARGON = ("std/prior_std", "prior_std", "identified_ratio", "weak_ratio", "P's", "GP", "nats", "E from")
+
+
+def _every_kind_of_reason() -> list[str]:
+    """One reason of each rule and verdict decide and its helpers give."""
+    m = _marg(mean=[0.5, 0.5, 0.5, 0.5], std=[0.01, 0.2, 0.28, 0.01],
+              lower=[0.48, 0.2, 0.05, 0.48], upper=[0.52, 0.8, 0.95, 0.52])
+    out = decide(m, best_theta=[0.5, 0.5, 0.5, 0.9], verified=0.9)[1]
+    out += decide(m, best_theta=[0.5] * 4, verified=0.2)[1]
+    out += decide(m, best_theta=[0.5] * 4, verified=0.9, local_ratio=[177.51, 0.6, 0.0, 0.0])[1]
+    out += decide(m, best_theta=[0.5] * 4, verified=0.9, local_ratio=[177.51, 0.0, 0.0, 0.0], reduced=True)[1][:1]
+    out += default_verdicts(m.assign(prior_std=("parameter", [0.29, 0.29, 0.0, 0.29]),
+                                     reach=("parameter", [1.0, 1.0, 1.0, 0.2])))[1]
+    out += default_verdicts(m.assign(std=("parameter", [0.01, 0.2, 0.5, 0.01])))[1]
+    out += list(segment_conflicts({"t0/w0": _marg([0.3], [0.01], [0.28], [0.32]),
+                                   "t0/w1": _marg([0.6], [0.01], [0.58], [0.62])}, identified_ratio=0.5).values())
+    out += list(refit_conflicts(m, [0.6, 0.5, 0.5, 0.5], error=0.27, start_error=1.0, noise_var=0.2,
+                                nats=3.0).values())
+    out.append(because("at bound", AtBound("x0", "1", "upper", 1.0, 0.999, 0.5, "local fit").reason()))
+    return out
+
+
+def test_a_user_reads_plain_words_and_the_rule_stays_in_the_api() -> None:
+    """Every reason keeps its rule for code (rule_of), and what a user reads (plain_reason) names no
+    rule and none of the rules' arithmetic, nor a share of the prior above 100 %."""
+    reasons = _every_kind_of_reason()
+    assert {rule_of(r) for r in reasons} == set(RULES) - {"structure"}
+    for reason in reasons:
+        words = plain_reason(reason)
+        assert words and reason.endswith(words), reason
+        assert not [rule for rule in RULES if rule in words.lower()], words
+        assert not [term for term in _JARGON if term in words], words
+        assert not [p for p in re.findall(r"(\d+)%", words) if int(p) > 100], words
+    assert plain_reason("P rests on 3 effective cells") == "P rests on 3 effective cells"     # names no rule
+
+
+def test_only_a_decoder_that_made_the_belief_is_blamed_for_a_trade_off() -> None:
+    """The user's case: a full-space search whose local fit leaves a parameter 17751 % of its box's
+    spread. The reason says the box's spread is exceeded and that other parameters make up for it;
+    the decoder is named only when a lower-dimensional one made P."""
+    m = _marg(mean=[0.5], std=[0.01], lower=[0.48], upper=[0.52])
+    full = plain_reason(decide(m, best_theta=[0.5], verified=0.9, local_ratio=[177.51])[1][0])
+    assert "wider than its box's spread" in full and "other parameters can make up for a change in it" in full
+    assert "decoder" not in full and "17751" not in full
+    latent = plain_reason(decide(m, best_theta=[0.5], verified=0.9, local_ratio=[177.51], reduced=True)[1][0])
+    assert "decoder held those fixed" in latent

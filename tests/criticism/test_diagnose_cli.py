@@ -80,3 +80,45 @@ def test_diagnose_prints_the_estimate_and_every_stage(two_files) -> None:
     assert [s.split(": ")[1] for s in stages] == ["first model", "identification 0", "pass 1 criticism"]
     assert sum(": done in" in line for line in lines) == 3
     assert np.isfinite(result.passes[0].theta).all()
+
+
+def test_diagnose_prints_warnings_as_plain_notes(tmp_path, two_files, monkeypatch, capsys) -> None:
+    """A budget warning and numpy's all-NaN warning raised during the run reach the terminal as one
+    'note:' line each, without Python's 'FILE:LINE: Category:' and source line."""
+    import warnings
+
+    from belief.errors import BudgetWarning
+
+    def fake(data, **kwargs):
+        warnings.warn("6 successful evaluations for a 15-dimensional search", BudgetWarning, stacklevel=2)
+        np.nanmax(np.full((2, 3), np.nan), axis=1)
+        raise SystemExit(7)          # the report is not under test
+
+    monkeypatch.setattr(cli, "diagnose", fake)
+    with pytest.raises(SystemExit):
+        main(["diagnose", *two_files, "--out", str(tmp_path / "out"), "--no-progress", "--skip-checks"])
+    err = capsys.readouterr().err
+    assert "tensegrid diagnose: note: 6 successful evaluations for a 15-dimensional search\n" in err
+    assert "tensegrid diagnose: note: All-NaN slice encountered (raised at " in err
+    assert "Warning:" not in err and "np.nanmax(" not in err and "warnings.warn(" not in err
+
+
+def test_phases_of_a_recording_with_dropped_frames_raise_no_warning(two_files) -> None:
+    """A dropped frame (nodes and commands NaN) once made phases() warn of an all-NaN slice; the
+    command held across it still shows a change made during the gap."""
+    import warnings
+
+    import xarray as xr
+
+    from criticism.residuals import phases
+
+    ds = xr.open_dataset(two_files[0]).load()
+    controls = ds["controls"].values
+    step = int(np.flatnonzero(np.abs(np.diff(controls, axis=0)).max(axis=1) > 1e-9)[0]) + 1     # first change
+    gappy = ds.copy(deep=True)
+    gappy["controls"].values[step] = np.nan
+    gappy["nodes"].values[step] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        labels = phases(gappy)
+    assert labels[step + 1] == "actuating" and (labels == phases(ds)).sum() >= len(labels) - 1

@@ -74,7 +74,7 @@ def test_diagnose_writes_the_model_with_the_stage_s_components_and_identify_uses
     assert "Engine mismatch" in page and "The mismatch stage added cable_anchors to the T6" in page
     out = tmp_path / "ident"
     assert main(["identify", files[0], "--model", str(tmp_path / "diag" / "model.json"), "--preset", "bo",
-                 "--budget", "8", "--candidates", "64", "--out", str(out), "--no-progress"]) == 0
+                 "--budget", "8", "--candidates", "64", "--out", str(out), "--no-progress", "--no-next"]) == 0
     result = xr.open_dataset(out / "result.nc")
     assert "anchor_offset" in [str(p) for p in result["parameter"].values]
     assert json.loads(result.attrs["config"])["effects"] == [{"effect": "cable_anchors"}]

@@ -9,6 +9,7 @@ import numpy as np
 
 from belief.belief import Belief
 from belief.grid import Grid
+from belief.verdicts import rule_of
 from criticism.diagnose import Pass, _record_after
 from criticism.report import estimate_verdict
 from criticism.revisit import Revisit
@@ -65,11 +66,12 @@ def test_the_loop_checks_sizes_only_for_an_effect_the_second_look_found() -> Non
 
 
 def test_the_report_gives_the_structure_rule_its_words() -> None:
-    """A verdict the structure rule decided is printed with its reason (P cannot show it); others
-    only with their verdict and bound."""
+    """A verdict the structure rule decided is printed with its reason in plain words (P cannot show
+    it), the rule's name left to the API; others only with their verdict and bound."""
     checked = _revisit(0.21).check_sizes(_belief(0.55))
     verdict, reason = checked.verdicts["hysteresis"]
     text = estimate_verdict({"verdict": verdict, "reason": reason, "at_bound": ""})
-    assert text.startswith("not identified (structure: 0.21 with cable_hysteresis alone")
+    assert rule_of(reason) == "structure" and "structure" not in text
+    assert text.startswith("not identified (0.21 with cable_hysteresis alone")
     assert estimate_verdict({"verdict": "identified", "reason": "narrowing: ok", "at_bound": "upper"}) == \
         "identified (at upper bound)"

@@ -160,6 +160,35 @@ def test_each_bad_input_gives_its_named_finding(short, name: str) -> None:
     assert all(line.startswith("bad.nc: ") and "\n" not in line for line in report.lines())
 
 
+def test_dropped_frames_are_told_apart_from_single_missing_nodes(short) -> None:
+    """Two whole frames lost (a dropped frame: every node NaN, controls too) read as such, with no
+    "node missing most" that every node shares; a node missing alone is counted and named apart."""
+    values = short["nodes"].values.copy()
+    values[[20, 35]] = np.nan
+    dropped = _with_nodes(short, values)
+    dropped["controls"] = dropped["controls"].where(~dropped["time"].isin(dropped["time"].values[[20, 35]]))
+    message = check_trajectory(dropped).finding("dropouts").message
+    assert "2 frames missing entirely (all nodes NaN), 0 frames with only some nodes missing" in message
+    assert "missing most" not in message and "NaN;" not in message
+    values[40, 7] = np.nan
+    message = check_trajectory(_with_nodes(short, values)).finding("dropouts").message
+    assert "2 frames missing entirely (all nodes NaN), 1 frame with only some nodes missing" in message
+    assert "node 7 is missing most often (1 of those samples)" in message
+
+
+def test_a_file_without_encoder_readings_is_told_they_would_measure_the_actuator(short) -> None:
+    """Without rest_length (or with none finite) an info finding says the readings would let the actuator
+    be measured directly; it changes nothing else, and a file with readings does not get it."""
+    assert check_trajectory(short).finding("rest-length-missing") is None
+    for bare in (short.drop_vars("rest_length"), short.assign(rest_length=short["rest_length"] * np.nan)):
+        report = check_trajectory(bare, source="bare.nc")
+        found = report.finding("rest-length-missing")
+        assert found is not None and found.severity == "info", report.lines()
+        assert "encoder readings" in found.message and "measured directly from commands" in found.fix
+        assert report.errors == () and report.warnings == ()
+        assert set(report.codes) - {"rest-length-missing"} == set(check_trajectory(short).codes)
+
+
 def test_the_units_are_named_and_converted_before_the_other_checks(short) -> None:
     mm = check_trajectory(_millimetres(short))
     assert mm.length_scale == 1e-3 and mm.rod_length == pytest.approx(1.74, abs=1e-3)
@@ -225,7 +254,8 @@ def test_the_check_command_exits_2_on_an_error_and_0_on_a_clean_file(files, caps
 
 def test_identify_stops_on_the_checks_before_any_evaluation(files, tmp_path, capsys) -> None:
     out = tmp_path / "run"
-    code = main(["identify", files["mm"], "--preset", "bo", "--budget", "3", "--out", str(out), "--no-progress"])
+    code = main(["identify", files["mm"], "--preset", "bo", "--budget", "3", "--out", str(out), "--no-progress",
+                 "--no-next"])
     assert code == 2
     err = capsys.readouterr().err
     assert f"tensegrid identify: {files['mm']}: error length-units" in err and "--skip-checks" in err

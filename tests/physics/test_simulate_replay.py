@@ -189,7 +189,7 @@ def test_a_result_of_a_real_identification_replays(data: Path, tmp_path: Path) -
     short = tmp_path / "short.nc"
     save_trajectory(load_trajectory(data / "exact.nc").isel(time=slice(0, 41)), short)
     done = subprocess.run([sys.executable, "-m", "physics.cli", "identify", str(short), "--preset", "random",
-                           "--budget", "2", "--no-progress", "--out", str(tmp_path / "id")],
+                           "--budget", "2", "--no-progress", "--no-next", "--out", str(tmp_path / "id")],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     with xr.open_dataset(tmp_path / "id" / "result.nc", engine="netcdf4") as root:
