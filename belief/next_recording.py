@@ -267,12 +267,12 @@ def suggest_recording(objective: Objective, theta: np.ndarray, candidates: Objec
     C = np.linalg.inv(F_data + F_m + box)
     Q, notes = _complement(theta, objective, measurements is not None and bool(measurements.measurements))
     V = _widest(C, Q, config.directions)
-    K, scores = objective.n_observations, []
+    K, now, scores = objective.n_observations, _logdet(Q.T @ C @ Q), []
     for motion, G in zip(motions, jacobian_along(candidates, theta, np.eye(theta.size), config.step), strict=True):
         c = K / (K + G.shape[0]) if floor_scaled else 1.0
         C_a = np.linalg.inv(c * (F_data + G.T @ G / noise_var) + F_m + box)
-        scores.append(MotionScore(motion, 0.5 * (_logdet(Q.T @ C @ Q) - _logdet(Q.T @ C_a @ Q)),
-                                  _percent(V.T @ C_a @ V), _percent(C_a)))
+        scores.append(MotionScore(motion, 0.5 * (now - _logdet(Q.T @ C_a @ Q)), _percent(V.T @ C_a @ V),
+                                  _percent(C_a)))
     if floor_scaled:
         notes += ("σ² is the model-error floor (δ E_min / 2), which grows with the data: a recording narrows P only "
                   "along what it newly moves; with σ² measured from the data (--preset handoff-local) it counts in "
