@@ -327,13 +327,14 @@ def _finishing(objective: Objective, best_theta: Sequence[float], noise: NoiseLe
 def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: Sequence[Record], model: GPSurrogate, *,
            config: PosteriorConfig, surrogate: SurrogateConfig, seed: int,
            verdict_config: VerdictConfig | None = None, fit_config: FitConfig = DEFAULT_FIT,
-           finish_step: StepConfig | None = None) -> Belief:
+           finish_step: StepConfig | None = None, reserved: int = 0) -> Belief:
     """The Belief of an identification run (module docstring).
 
     ``records``: every evaluation (journal Records, ``status`` "ok" for successes, ``parts`` per
     segment); ``model``: the GP fitted to all evaluations; ``seed``: minimizer-mode sampling;
     ``fit_config``: the local fit of the "calibrated" noise rule; ``finish_step``: the Gauss-Newton
-    step that ends the run, taken here (module docstring), or None.
+    step that ends the run, taken here (module docstring), or None; ``reserved``: the evaluations
+    of the run's budget kept for this assessment (belief.search), which the budget warning adds.
     """
     vcfg = verdict_config or VerdictConfig(identified_ratio=config.identified_ratio)
     ok = [r for r in records if r.status == "ok"]
@@ -382,8 +383,6 @@ def assess(objective: Objective, decoder: Decoder, grid: CandidateSet, records: 
                        local_ratio=ratio)
     finishing = None if finish_step is None else _finishing(counted, best.theta, noise, fit, local, stepped,
                                                             finish_step)
-    reserved = 0 if finish_step is None else finishing_cost(objective.space.dim, finish_step, converges=converges,
-                                                            fit=fit_config)
     warn = budget_warning(len(ok), decoder.dim, per_dim=vcfg.evaluations_per_dim, failed=len(records) - len(ok),
                           reserved=reserved)
     if warn:

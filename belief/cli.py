@@ -9,8 +9,9 @@
 ``--preset`` names the recipe (belief.presets): ``handoff-gn`` (default, the best measured) spends
 ``--latent`` evaluations of BO in a learned 5-D latent grid, continues BO in the full space over
 ``--candidates`` Sobol points with them as its initial design, and finishes with one
-Gauss-Newton step (D + 4 evaluations, counted in ``--budget``); ``handoff`` stops before the
-step; ``bo-gn``/``bo`` search the full space only, ``random`` is random search there, and
+Gauss-Newton step (D + 4 evaluations); ``handoff`` stops before the step, though its verdicts
+may take the same step; ``--budget`` counts every evaluation of E but the ``-local`` presets' local
+stage; ``bo-gn``/``bo`` search the full space only, ``random`` is random search there, and
 ``latent`` searches only the latent grid. The latent decoder is the one shipped for the T6's
 default box, or ``--decoder rembo`` (a random embedding of dimension ``--dim``) or a trained
 decoder (``vae``, ``ae-dyn``, ``active``: ``--decoder-file FILE`` written by ``tensegrid
@@ -45,14 +46,12 @@ from typing import TYPE_CHECKING, Any
 from belief.cli_next import add_next_options
 from belief.noise import DEFAULT_DISCREPANCY, NOISE_RULES
 from belief.presets import DEFAULT_PRESET, PRESETS
+from physics.actuator_choice import add_actuator_option
 from physics.measurements import add_measurement_options
 from physics.prior_box import add_prior_box_options, box_record
-from physics.state_estimation import STATE_METHODS, StateEstimator
+from physics.state_estimation import STATE_METHODS
 
 if TYPE_CHECKING:                   # the engine and torch load only when a command needs them
-    import numpy as np
-    import xarray as xr
-
     from belief.grid import CandidateSet
     from belief.presets import Preset
     from belief.result import IdentificationResult
@@ -61,7 +60,6 @@ if TYPE_CHECKING:                   # the engine and torch load only when a comm
     from physics.measurements import MeasurementPrior
     from physics.objective import Objective
     from physics.parameters import ParameterSpace
-    from physics.push import PushObjective
 
 __all__ = ["register_identify", "run_identify"]
 
@@ -106,7 +104,8 @@ def _add_search_options(g: argparse._ArgumentGroup) -> None:
     g.add_argument("--latent", type=int, default=None, metavar="N",
                    help="evaluations of the latent stage of the handoff presets (default 15)")
     g.add_argument("--budget", type=int, default=50,
-                   help="evaluations of E: the search's and the finishing Gauss-Newton step's (default 50)")
+                   help="evaluations of E the run makes at most, the Gauss-Newton step after the search included "
+                        "(default 50; the -local presets' local stage adds its own)")
     g.add_argument("--time-budget", type=float, default=None, help="wall-clock budget in seconds")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--dim", type=int, default=5, help="--decoder rembo: latent dimension (default 5, capped at D)")
@@ -151,61 +150,7 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
                             "e.g. tension_limited_actuator cable_anchors)")
     model.add_argument("--model", default=None, metavar="FILE",
                        help="identify with the effects of a model file: DIR/model.json of tensegrid diagnose")
-
-
-def _push_objective(seed: int, space: ParameterSpace) -> tuple[PushObjective, np.ndarray]:
-    import numpy as np
-
-    from physics.push import PushObjective, generate_push_data
-
-    truth = np.array([1.0, 0.4])
-    impulses, observed = generate_push_data(truth, n=8, noise_std=0.05, seed=seed)
-    return PushObjective(impulses, observed, space=space, noise_std=0.05), truth
-
-
-def _data_truth(datasets: list[xr.Dataset], space: ParameterSpace) -> np.ndarray | None:
-    """θ that generated the data (the files' ``theta`` variable), if every file carries the same one."""
-    import numpy as np
-
-    thetas = [ds["theta"] for ds in datasets if "theta" in ds]
-    if not datasets or len(thetas) != len(datasets):
-        return None
-    try:
-        first = np.asarray(thetas[0].sel(parameter=list(space.names)).values, dtype=float)
-    except (KeyError, ValueError):
-        return None
-    same = all(np.allclose(t.sel(parameter=list(space.names)).values, first) for t in thetas[1:])
-    return first if same else None
-
-
-def _objective(args: argparse.Namespace, effects: tuple[Effect, ...], cleanup: contextlib.ExitStack
-               ) -> tuple[Objective, np.ndarray | None, list[xr.Dataset], MeasurementPrior]:
-    """(objective, true θ or None, datasets, what the user knows) from the data files or the toy, over the
-    prior box of --nominal, --bounds and --params with --measured and --fix checked on it (all before the
-    data are loaded), with ``effects``; a trajectory objective's workers close with ``cleanup``."""
-    from physics.measurements import measurement_prior_from_args
-    from physics.prior_box import prior_box_from_args
-
-    space = prior_box_from_args(args, _default_space(args, effects))
-    known = measurement_prior_from_args(args, space)        # MeasurementError before the data are loaded
-    if args.toy == "push":
-        push, truth = _push_objective(args.seed, space)
-        return known.hold(push), known.free(truth), [], known
-    from physics.predictor import dt_option
-    from physics.trajectory import load_trajectory
-    from physics.trajectory_objective import TrajectoryObjective
-
-    datasets = [load_trajectory(path) for path in args.data]
-    options = dt_option(getattr(args, "dt", None), datasets, name="--dt")   # StepSizeError before any evaluation
-    if not getattr(args, "skip_checks", False):
-        from physics.cli_check import preflight
-
-        preflight(datasets, args.data, "identify", known.space)     # DataCheckError, ParameterError: no evaluation
-    trajectories = cleanup.enter_context(TrajectoryObjective(
-        datasets, space=space, horizon=1, loss=args.loss, windows=args.windows, options=options,
-        n_workers=args.workers if args.workers > 1 else 0, effects=effects, states=StateEstimator(method=args.states)))
-    data_truth = _data_truth(datasets, trajectories.space)
-    return known.hold(trajectories), None if data_truth is None else known.free(data_truth), datasets, known
+    add_actuator_option(p.add_argument_group("actuator"))
 
 
 def _latent_decoder(args: argparse.Namespace, space: ParameterSpace) -> Decoder | None:
@@ -291,27 +236,6 @@ def _note(text: str) -> None:
     print(f"tensegrid identify: note: {text}", file=sys.stderr)
 
 
-def _effects(args: argparse.Namespace) -> tuple[Effect, ...]:
-    """The effects of --effects or --model (physics.model_file), () without them."""
-    from physics.errors import ParameterError
-    from physics.model_file import effects_by_name, read_model_file
-
-    effects, model = getattr(args, "effects", None), getattr(args, "model", None)
-    if (effects or model) and args.toy is not None:
-        raise ParameterError("--effects and --model extend the T6 model; the push toy has none. Drop them or "
-                             "pass data files.")
-    return effects_by_name(effects) if effects else read_model_file(model) if model else ()
-
-
-def _default_space(args: argparse.Namespace, effects: tuple[Effect, ...]) -> ParameterSpace:
-    """The parameter space before --nominal, --bounds and --params: the push toy's, or the T6's with
-    ``effects`` (those of --effects or --model)."""
-    from physics.effects import model_space
-    from physics.push import push_space
-
-    return push_space() if args.toy == "push" else model_space(effects)
-
-
 def _journal_path(args: argparse.Namespace) -> str | None:
     """--journal, by default OUT/journal.sqlite; None for 'none'."""
     journal: str = args.journal or os.path.join(args.out, "journal.sqlite")
@@ -323,7 +247,7 @@ def _budget_note(args: argparse.Namespace, decoder: Decoder | None, dim: int) ->
     points (belief.search), so that BO never runs; None when BO runs or the preset refuses the budget."""
     from dataclasses import replace
 
-    from belief.presets import minimum_budget
+    from belief.presets import minimum_budget, reserved_evaluations
     from belief.search import default_n_init
 
     preset = _preset(args)
@@ -332,13 +256,13 @@ def _budget_note(args: argparse.Namespace, decoder: Decoder | None, dim: int) ->
     bo_only, latent_only = preset.search == "bo" and preset.latent == 0, preset.search is None and decoder is not None
     if not (bo_only or latent_only) or args.budget < minimum_budget(preset, dim):
         return None
-    step = minimum_budget(preset, dim) - minimum_budget(replace(preset, local_step=False), dim)
+    step = reserved_evaluations(preset, dim)
     n_init = default_n_init(decoder.dim if latent_only and decoder is not None else dim)
     search = args.budget - step
     if search > n_init:
         return None
     where = "the latent grid" if preset.search is None else "the full space"
-    spent = f" after the {step} of the Gauss-Newton step" if step else ""
+    spent = f" after the {step} of the Gauss-Newton step after it" if step else ""
     return (f"--budget {args.budget} leaves {search} evaluations{spent} for BO over {where}, no more than its "
             f"initial design of {n_init} Sobol points: BO never runs (whatever the progress bar says); give "
             f"--budget {args.budget - search + n_init + 1} or more.")
@@ -349,6 +273,7 @@ def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder
     """The checks and notes due before anything is written: the budget, a journal to --resume, the
     prior box (every parameter, printed when it differs from the default), a budget that leaves BO no step
     and what the measurements do."""
+    from belief.cli_problem import default_space
     from belief.errors import BudgetError, JournalError
     from physics.outputs import check_output_file
     from physics.prior_box import box_changes
@@ -363,7 +288,7 @@ def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder
         latent = None if journal is None else os.path.splitext(journal)[0] + "-latent.sqlite"
         if journal is None or not (os.path.exists(journal) or os.path.exists(str(latent))):
             raise JournalError(f"--resume: no journal at {journal} to resume; run without --resume to start one.")
-    changes = box_changes(known.space, _default_space(args, effects))
+    changes = box_changes(known.space, default_space(args, effects))
     if changes:
         print(f"prior box: {len(changes)} of {known.space.dim} parameters differ from the default:\n  "
               + "\n  ".join(changes))
@@ -378,7 +303,8 @@ def _before_run(args: argparse.Namespace, objective: Objective, decoder: Decoder
 def run_identify(args: argparse.Namespace) -> int:
     """Handler of ``tensegrid identify``; returns the process exit code (0 ok, 2 usage or data error)."""
     from belief.cli_next import design_next, write_next
-    from belief.cli_outputs import write_outputs
+    from belief.cli_outputs import actuator_lines, write_outputs
+    from belief.cli_problem import build_problem, model_effects
     from physics.errors import TensegridError
     from physics.outputs import check_output_dir, output_dir
 
@@ -389,12 +315,16 @@ def run_identify(args: argparse.Namespace) -> int:
     with contextlib.ExitStack() as cleanup:     # closes the objective's workers before the figures
         try:
             check_output_dir(args.out)
-            effects = _effects(args)            # the model file is read once; refused with the toy
-            objective, truth, datasets, known = _objective(args, effects, cleanup)
+            effects = model_effects(args)       # the model file is read once; refused with the toy
+            problem = build_problem(args, effects, cleanup)
+            objective, truth, datasets = problem.objective, problem.truth, problem.datasets
+            known, effects = problem.known, problem.effects
             latent = _latent_decoder(args, objective.space)
             _before_run(args, objective, latent, effects, known)
             with output_dir(args.out):          # removed again if the run fails before writing into it
                 result, decoder, grid = _run(args, objective, latent, effects, known)
+            if problem.actuator is not None:
+                result.config["actuator"] = problem.actuator.as_dict()
         except TensegridError as exc:
             print(f"tensegrid identify: {exc}", file=sys.stderr)
             return 2
@@ -403,7 +333,7 @@ def run_identify(args: argparse.Namespace) -> int:
         result.config["next_recording"] = suggestion.as_dict()        # result.nc and report.html carry it
     write_outputs(args, result, decoder, grid, truth, datasets, effects, known=known)
     print(f"preset {result.config['preset']}: " + " -> ".join(result.config["stages"]))
-    print("\n".join(filter(None, [result.summary(truth=truth), known.summary()])))
+    print("\n".join(filter(None, [result.summary(truth=truth), known.summary(), *actuator_lines(result)])))
     if suggestion is not None:
         print("\n".join(write_next(args.out, suggestion)))
     print(f"wrote {args.out}/report.html (one page to hand on), result.nc, summary.txt, marginals.csv, history.csv, "

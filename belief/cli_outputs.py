@@ -19,7 +19,14 @@ if TYPE_CHECKING:
     from physics.measurements import MeasurementPrior
     from physics.parameters import ParameterSpace
 
-__all__ = ["write_outputs", "plot_rollouts"]
+__all__ = ["write_outputs", "plot_rollouts", "actuator_lines"]
+
+
+def actuator_lines(result: IdentificationResult) -> list[str]:
+    """The summary's lines on the actuator read from the encoders (physics.actuator_choice), [] when
+    it was not read."""
+    record = result.config.get("actuator")
+    return [str(line) for line in record["lines"]] if record else []
 
 
 def write_outputs(args: argparse.Namespace, result: IdentificationResult, decoder: Decoder, grid: CandidateSet,
@@ -42,7 +49,7 @@ def write_outputs(args: argparse.Namespace, result: IdentificationResult, decode
     result.save(os.path.join(out, "result.nc"))
     with open(os.path.join(out, "summary.txt"), "w") as fh:
         user = "" if known is None else known.summary()        # what the user measured and fixed
-        fh.write("\n".join(filter(None, [result.summary(truth=truth), user])) + "\n")
+        fh.write("\n".join(filter(None, [result.summary(truth=truth), user, *actuator_lines(result)])) + "\n")
     marginals.to_dataframe().to_csv(os.path.join(out, "marginals.csv"))
     with open(os.path.join(out, "prior_box.json"), "w") as fh:
         json.dump(result.config["prior_box"], fh, indent=1)

@@ -369,10 +369,11 @@ def write_identify_report(out: str | os.PathLike[str], result: IdentificationRes
     if pin is not None:
         page.subsection("What the data pin")
         page.code("\n".join(pin.lines()))
-    upcoming = result.config.get("next_recording")
-    if isinstance(upcoming, dict) and upcoming.get("lines"):
-        page.subsection("What to record next")
-        page.code("\n".join(str(line) for line in upcoming["lines"]))
+    for key, title in (("actuator", "The actuator read from the encoders"), ("next_recording", "What to record next")):
+        record = result.config.get(key)
+        if isinstance(record, dict) and record.get("lines"):
+            page.subsection(title)
+            page.code("\n".join(str(line) for line in record["lines"]))
     page.details("summary.txt", result.summary(truth=truth))
     page.section("Figures")
     for name, caption in _FIGURES:

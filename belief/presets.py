@@ -14,14 +14,16 @@ finishes them. ``identify(objective, budget=..., seed=...)`` without a decoder a
     random        -                             random Sobol θ                          -
     latent        BO to the budget              -                                       -
 
-Budget: ``budget`` counts every evaluation of E, the finishing step's included: stage 2 runs to
-``budget`` less its cost (belief.assess.finishing_cost: D + 1 + len(lengths), 19 for the T6's
-D = 15; the calibrated noise rule's fit to convergence instead when it runs). The step is taken in
-stage 2's assessment and shares its evaluations: σ²'s residuals at the best evaluation are its
-start, and the verdicts' local refit (D + 4, belief.verdicts) is the same step, so a ``-gn`` run
-makes exactly ``budget`` evaluations. The presets without the step spend the assessment's (one
-for σ², D + 3 for the local refit when a parameter narrowed) after their ``budget``;
-``config["evaluations"]`` records the search's, those after it and the total. The latent
+Budget: ``budget`` counts every evaluation of E the search and its assessment make: stage 2 (the
+latent grid for ``latent``) runs to ``budget`` less :func:`reserved_evaluations` (belief.assess.
+finishing_cost: D + 1 + len(lengths), 19 for the T6's D = 15; the calibrated noise rule's fit to
+convergence instead when it runs), the most the assessment spends after it (σ²'s residuals, the
+verdicts' local refit, belief.verdicts). A ``-gn`` preset's finishing step is that refit's step,
+taken whatever the verdicts, so such a run makes exactly ``budget`` evaluations; the others make
+at most ``budget`` (the refit runs only when a parameter narrowed). ``config["evaluations"]``
+records the search's, those after it and the total. The ``-local`` presets' local stage spends
+its own evaluations (:class:`~belief.local_belief.LocalConfig`) after ``budget``; the summary
+counts them apart. The latent
 stage needs a decoder over the objective's space: ``decoder=`` (a trained one,
 ``tensegrid train-embedding``), else the pretrained one shipped for the T6's default box
 (embeddings.pretrained); with neither, ``handoff`` presets run without their latent stage and
@@ -63,7 +65,8 @@ from physics.measurements import MeasurementPrior
 from physics.objective import Objective, ObjectiveFunction, as_objective
 from physics.parameters import ParameterSpace
 
-__all__ = ["Preset", "PRESETS", "DEFAULT_PRESET", "PresetWarning", "minimum_budget", "run_preset"]
+__all__ = ["Preset", "PRESETS", "DEFAULT_PRESET", "PresetWarning", "minimum_budget", "reserved_evaluations",
+           "run_preset"]
 
 
 class PresetWarning(UserWarning):
@@ -143,18 +146,24 @@ def _latent_decoder(preset: Preset, objective: Objective, decoder: Decoder | Non
     return replace(preset, latent=0), None
 
 
-def _step_cost(preset: Preset, space_dim: int, step: StepConfig, converges: bool) -> int:
-    """The evaluations of the budget kept for the finishing step (module docstring), 0 without one."""
-    return finishing_cost(space_dim, step, converges=converges) if preset.local_step else 0
+def reserved_evaluations(preset: str | Preset, space_dim: int, step: StepConfig = DEFAULT_STEP, *,
+                         converges: bool = False) -> int:
+    """The evaluations of the budget kept for after the search (module docstring): the most stage 2's
+    assessment spends (``step``: the finishing step of a ``-gn`` preset; ``converges``: the calibrated
+    noise rule's fit, belief.assess.fits_to_convergence); 0 for a ``-local`` preset, whose search
+    has no assessment."""
+    recipe = resolve(preset)
+    if recipe.local_stage:
+        return 0
+    return finishing_cost(space_dim, step if recipe.local_step else DEFAULT_STEP, converges=converges)
 
 
 def minimum_budget(preset: str | Preset, space_dim: int, step: StepConfig = DEFAULT_STEP, *,
                    converges: bool = False) -> int:
     """The smallest budget ``preset`` runs with in a D = ``space_dim`` space: its latent evaluations, one
-    more (at least two: the posterior fits a GP) and its finishing step (``converges``: the calibrated
-    noise rule fits to convergence instead, belief.assess.fits_to_convergence)."""
+    more (at least two: the posterior fits a GP) and :func:`reserved_evaluations`."""
     recipe = resolve(preset)
-    return _step_cost(recipe, space_dim, step, converges) + max(recipe.latent + 1, 2)
+    return reserved_evaluations(recipe, space_dim, step, converges=converges) + max(recipe.latent + 1, 2)
 
 
 def _full_space(space_dim: int, decoder: Identity, preset: Preset, seed: int) -> Grid | SobolCandidates:
@@ -171,8 +180,9 @@ def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, bu
             journal: str | os.PathLike[str] | None, on_stage: OnStage, finish_step: StepConfig | None,
             options: dict[str, Any]) -> IdentificationResult:
     """Stages 1 and 2 of the module docstring, ``budget`` evaluations in all, ``finish_step`` taken
-    in stage 2 (belief.search) and counted in ``budget``."""
+    in stage 2's assessment (belief.search), which ``budget`` counts."""
     space = objective.space
+    options = {**options, "budget_counts": "all"}
     stepping = None if finish_step is None else (lambda: on_stage("local_step"))
     if preset.search is None:
         assert decoder is not None
@@ -187,7 +197,7 @@ def _search(objective: Objective, preset: Preset, decoder: Decoder | None, *, bu
                       journal=journal, proposer=preset.search, finish_step=finish_step, on_assess=stepping, **options)
     assert decoder is not None
     on_stage("latent")
-    quiet = {k: v for k, v in options.items() if k not in ("posterior", "verdict_config")}
+    quiet = {k: v for k, v in options.items() if k not in ("posterior", "verdict_config", "budget_counts")}
     first = search(objective, decoder, Grid.for_decoder(decoder, points_per_dim=preset.points_per_dim),
                    budget=preset.latent, seed=seed, journal=_latent_journal(journal), posterior=None, **quiet)
     on_stage("search")
@@ -263,9 +273,10 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
     """
     if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
         raise BudgetError(f"budget must be >= 1 evaluation, got {budget!r}; a zero budget identifies nothing.")
-    if {"proposer", "finish_step", "on_assess"} & set(options):
-        raise BeliefError("a preset chooses its own proposers and finishing step (step=, on_stage=); pass a grid and "
-                          "decoder for a search with proposer=, finish_step= or on_assess=.")
+    if {"proposer", "finish_step", "on_assess", "budget_counts"} & set(options):
+        raise BeliefError("a preset chooses its own proposers and finishing step (step=, on_stage=) and counts every "
+                          "evaluation in budget=; pass a grid and decoder for a search with proposer=, finish_step=, "
+                          "on_assess= or budget_counts=.")
     if isinstance(objective, Objective) and (space is not None or workers != 1):
         raise BeliefError("space= and workers= wrap a plain function θ -> E; this objective has its own space "
                           f"({list(objective.space.names)}): leave them out.")
@@ -274,12 +285,13 @@ def run_preset(objective: Objective | ObjectiveFunction, preset: str | Preset = 
     on_stage = on_stage or (lambda name: None)
     pcfg = _local_posterior(options) if recipe.local_stage else None
     converges = fits_to_convergence(objective, posterior_config(options.get("posterior", "likelihood")))
-    cost = _step_cost(recipe, objective.space.dim, step, converges)
-    least, search_budget = minimum_budget(recipe, objective.space.dim, step, converges=converges), budget - cost
+    assessed = recipe.local_step or posterior_config(options.get("posterior", "likelihood")) is not None
+    cost = reserved_evaluations(recipe, objective.space.dim, step, converges=converges) if assessed else 0
+    least, search_budget = cost + max(recipe.latent + 1, 2), budget - cost
     if budget < least:
         raise BudgetError(f"budget={budget} is too small for preset {recipe.name!r}: {recipe.latent} latent "
-                          f"evaluations and a finishing Gauss-Newton step of {cost} leave too few for the search (the "
-                          f"posterior needs 2 evaluations); give at least {least}.")
+                          f"evaluations and the {cost} of the Gauss-Newton step after the search leave too few for it "
+                          f"(the posterior needs 2 evaluations); give at least {least}.")
     result = _search(objective, recipe, latent, budget=budget, seed=seed, journal=journal, on_stage=on_stage,
                      finish_step=step if recipe.local_step else None,
                      options=options if pcfg is None else {**options, "posterior": None})

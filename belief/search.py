@@ -51,10 +51,11 @@ it is checked before each batch.
 
 Evaluations: ``budget`` counts the search's evaluations of E (``result.n_evaluations``; carried
 and replayed ones included). The assessment evaluates E after them (σ² residuals, the local
-refit's Gauss-Newton step: belief.assess); with ``finish_step`` (the presets' finishing
-Gauss-Newton step, taken in the assessment so that it shares those evaluations) the budget counts
-them too: the search stops :func:`belief.assess.finishing_cost` short of it. ``config["evaluations"]``
-records the search's, those after it and their total.
+refit's Gauss-Newton step: belief.assess). With ``budget_counts="all"`` or a ``finish_step`` (the
+presets' finishing Gauss-Newton step, taken in the assessment so that it shares those
+evaluations) the budget counts them too: the search stops :func:`belief.assess.finishing_cost`
+short of it, the most the assessment spends, so a run makes at most ``budget`` evaluations.
+``config["evaluations"]`` records the search's, those after it and their total.
 
 Why not botorch/Ax: the project uses pyro.contrib.gp for the GP (DESIGN.md), and the loop is over
 a finite set of cells, which needs no continuous acquisition optimizer.
@@ -79,7 +80,7 @@ from belief.driver import Budget, DriverResult, run
 from belief.errors import BeliefError, BudgetError, BudgetWarning, GridError, ObjectiveError
 from belief.grid import CandidateSet, candidates_from_config
 from belief.journal import Journal, Record
-from belief.least_squares import StepConfig
+from belief.least_squares import DEFAULT_STEP, StepConfig
 from belief.posterior import PosteriorConfig, posterior_from_surrogate
 from belief.proposers import BOProposer, Proposal, Proposer, RandomProposer, fit_surrogate
 from belief.result import IdentificationResult, history_dataset
@@ -159,10 +160,10 @@ def _validate_budget(grid: CandidateSet, decoder: Decoder, budget: Any, time_bud
             raise BudgetError(f"budget must be >= 1 evaluation, got {budget!r}; a zero budget identifies nothing.")
         if budget <= reserved:
             raise BudgetError(f"budget={budget} leaves no evaluation of E for the search after the {reserved} of the "
-                              f"finishing Gauss-Newton step; give at least {reserved + 2}.")
+                              f"Gauss-Newton step after it; give at least {reserved + 2}.")
         if budget - reserved > grid.size:
-            kept = (f" leaves {budget - reserved} evaluations for the search after the {reserved} of the finishing "
-                    "Gauss-Newton step, which") if reserved else ""
+            kept = (f" leaves {budget - reserved} evaluations for the search after the {reserved} of the "
+                    "Gauss-Newton step after it, which") if reserved else ""
             raise BudgetError(f"budget={budget}{kept} exceeds the {grid.size} grid cells (each cell is evaluated at "
                               "most once); use a finer grid or a smaller budget.")
     if time_budget is not None and not (isinstance(time_budget, (int, float)) and math.isfinite(time_budget)
@@ -272,6 +273,7 @@ def search(
     carry: Sequence[Record] = (),
     finish_step: StepConfig | None = None,
     on_assess: Callable[[], None] | None = None,
+    budget_counts: Literal["search", "all"] = "search",
 ) -> IdentificationResult:
     """Search ``grid`` by Algorithm 1 (module docstring) and return the belief over it.
 
@@ -291,19 +293,19 @@ def search(
     ``finish_step``: a Gauss-Newton step from the best evaluation that ends the run, counted in
     ``budget`` (module docstring) and recorded in ``config["finishing_step"]``; it moves nothing
     (belief.presets makes its point the best θ); ``on_assess()``: called once the search's evaluations
-    are done, as those after it (assessment, finishing step) start.
+    are done, as those after it (assessment, finishing step) start; ``budget_counts``: "all" keeps
+    the assessment's evaluations inside ``budget`` (module docstring), "search" counts the search's.
     """
     objective, space = _validate_problem(objective, decoder, grid)
     n_init = _carried_init(carry, n_init)
     pcfg = posterior_config(posterior)
-    reserved = 0 if finish_step is None or budget is None else \
-        finishing_cost(space.dim, finish_step, converges=fits_to_convergence(objective, pcfg))
+    reserved = _reserved(objective, pcfg, budget=budget, finish_step=finish_step, budget_counts=budget_counts)
     n_target, n_init = _validate_budget(grid, decoder, budget, time_budget, q, n_init, seed, reserved)
     seed, scfg = int(seed), surrogate or SurrogateConfig()
     chooser = _proposer(proposer, seed, scfg, n_init)
     if isinstance(chooser, BOProposer) and n_target <= n_init:
-        kept = f" leaves {n_target} evaluations for the search after the {reserved} of the finishing Gauss-Newton " \
-               "step:" if reserved else " is"
+        kept = f" leaves {n_target} evaluations for the search after the {reserved} of the Gauss-Newton " \
+               "step after it:" if reserved else " is"
         warnings.warn(f"budget={budget if reserved else n_target}{kept} no more than the initial design of {n_init} "
                       f"cells: BO never runs and the result is the initial design's; give budget >= "
                       f"{n_init + 1 + reserved} (or a smaller n_init).", BudgetWarning, stacklevel=2)
@@ -321,7 +323,20 @@ def search(
     if on_assess is not None:
         on_assess()
     return _result(objective, decoder, grid, out, space=space, config=fp, pcfg=pcfg, scfg=scfg, seed=seed,
-                   vcfg=verdict_config, extra={"budget": budget, "time_budget": time_budget}, finish_step=finish_step)
+                   vcfg=verdict_config, extra={"budget": budget, "time_budget": time_budget}, finish_step=finish_step,
+                   reserved=reserved)
+
+
+def _reserved(objective: Objective, pcfg: PosteriorConfig | None, *, budget: int | None,
+              finish_step: StepConfig | None, budget_counts: Literal["search", "all"]) -> int:
+    """The evaluations of ``budget`` kept for after the search (module docstring): the finishing
+    step's or, with ``budget_counts="all"``, the assessment's (its local refit is a default step)."""
+    if budget_counts not in ("search", "all"):
+        raise BeliefError(f"budget_counts must be 'search' or 'all', got {budget_counts!r}.")
+    if budget is None or (finish_step is None and (budget_counts == "search" or pcfg is None)):
+        return 0
+    return finishing_cost(objective.space.dim, finish_step or DEFAULT_STEP,
+                          converges=fits_to_convergence(objective, pcfg))
 
 
 def with_belief(objective: Objective, result: IdentificationResult, *,
@@ -367,7 +382,7 @@ def evaluations_record(search: int, after: int) -> dict[str, int]:
 def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: DriverResult, *, space: ParameterSpace,
             config: dict[str, Any], pcfg: PosteriorConfig | None, scfg: SurrogateConfig,
             seed: int, extra: dict[str, Any], vcfg: VerdictConfig | None = None,
-            finish_step: StepConfig | None = None) -> IdentificationResult:
+            finish_step: StepConfig | None = None, reserved: int = 0) -> IdentificationResult:
     """The IdentificationResult of the driver's records: best θ, history, (with ``pcfg``) the Belief,
     (with ``finish_step``) the finishing step's record, and the evaluations of E made."""
     records = out.records
@@ -389,7 +404,7 @@ def _result(objective: Objective, decoder: Decoder, grid: CandidateSet, out: Dri
         if model is None:
             raise ObjectiveError(f"only {len(ok)} successful evaluation(s); the posterior needs at least 2.")
         belief = assess(objective, decoder, grid, records, model, config=pcfg, surrogate=scfg, seed=seed,
-                        verdict_config=vcfg, finish_step=finish_step)
+                        verdict_config=vcfg, finish_step=finish_step, reserved=reserved)
         after, finishing = int(belief.attrs["assessment_evaluations"]), belief.attrs.get("finishing_step")
         fit = belief.attrs.get("local_fit") or {}
         if fit.get("converged_fit") and float(fit["error"]) < float(best.error):     # the local fit's end point

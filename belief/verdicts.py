@@ -250,13 +250,13 @@ def budget_warning(n_ok: int, dim: int, *, per_dim: int, failed: int = 0, reserv
     """A message when the GP fitted n_ok < per_dim x dim successful evaluations of a ``dim``-dimensional
     search, else "". It counts what the GP saw, the search's evaluations; the budget it suggests adds
     the ``failed`` ones (as many failures again) and the ``reserved`` evaluations the run spends after
-    the search (a finishing Gauss-Newton step, belief.assess.finishing_cost), so that a run with that
+    the search (the Gauss-Newton step after it, belief.assess.finishing_cost), so that a run with that
     budget gives the GP per_dim x dim."""
     need = per_dim * dim
     if n_ok >= need:
         return ""
     extra = (f", {failed} for as many failures" if failed else "") + \
-        (f", {reserved} for the finishing Gauss-Newton step" if reserved else "")
+        (f", {reserved} for the Gauss-Newton step after the search" if reserved else "")
     split = f" ({need} for the GP{extra})" if extra else ""
     return (f"{n_ok} successful evaluations for a {dim}-dimensional search: a GP needs about {per_dim} per "
             f"dimension ({need}) to map E, and it fits the search's evaluations only; P follows the GP's guesses "

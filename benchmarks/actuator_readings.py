@@ -22,13 +22,20 @@ and claimed iff delayed, the rate's error against targetVelocity, the tension sl
 maxTens / k (the stage measures lengths node to node, the testbed anchor to anchor on the end
 faces' rims, so a few mm apart), the law chosen, how often the law was reported as a misfit, the
 readings' RMS residual, the time per identification and per data set made ("cached": none made).
-``--engine library`` does the same on the library's own robot and motor (physics.actuators: a
+``--engine mujoco-native`` does the same on the robot rebuilt with MuJoCo's own tendons and
+actuators (testbed.mujoco_native: a rate-limited pid winch, shares no robot code). ``--engine library`` does the same on the library's own robot and motor (physics.actuators: a
 driven spool whose speed droops with the cable's tension, outside every law of the stage), three
 flops drawn per seed like the testbed's, with and without the ActuatorDelay effect at 50 ms.
 
     python benchmarks/actuator_readings.py [--seeds 10]
     python benchmarks/actuator_readings.py --engine bullet mujoco [--quick]
     python benchmarks/actuator_readings.py --engine library
+    python benchmarks/actuator_readings.py --engine bullet mujoco library --choice
+
+``--choice`` prints, per robot and data set, in how many seeds the law read from the encoders
+replaces the motor model in identify and diagnose (physics.actuator_choice: when its RMS residual
+on the readings is under a tenth of the motor model's at nominal θ), both residuals, and the delay the
+model then carries.
 """
 from __future__ import annotations
 
@@ -168,7 +175,7 @@ def testbed_truth(folder: Path) -> Actuator:
                     slack=theta["maxTens"] / theta["stiffnessActive"])
 
 
-def run_testbed(name: str, seed: int, engine: Literal["bullet", "mujoco"], *, version: int = 2,
+def run_testbed(name: str, seed: int, engine: Literal["bullet", "mujoco", "mujoco-native"], *, version: int = 2,
                 noise: float = 2e-4) -> dict[str, float | str | bool]:
     """Identify the actuator of testbed data set ``name`` at ``seed`` in ``engine`` from its three fit
     flops (made and cached on first use): :func:`_scored`, and ``made`` the seconds spent making
@@ -271,9 +278,37 @@ def testbed_table(engines: list[str], seeds: range, version: int, noise: float) 
                   f"{f'{np.mean(made):.0f} ({len(made)} made)' if made else 'cached'} |", flush=True)
 
 
+def choice_table(engines: list[str], seeds: range, version: int, noise: float) -> None:
+    """Per engine and data set of TESTBED_SETS: in how many seeds the law read from the encoders
+    replaces the motor model (physics.actuator_choice), and the two RMS residuals on the readings."""
+    from physics.actuator_choice import choose_actuator
+    from physics.parameters import ParameterSpace
+
+    print("| engine | data set | law replaces the motor | law's RMS [mm] median (min-max) | motor model's RMS at "
+          "nominal θ [mm] median (min-max) | delay in the model [ms] median (min-max) |")
+    print("|---|---|---|---|---|---|")
+    for engine in engines:
+        for name in TESTBED_SETS:
+            choices = []
+            for seed in seeds:
+                if engine == "library":
+                    data = library_flops(name, seed, noise=noise)[0]
+                else:
+                    from testbed.datasets import cached_dataset
+                    files = cached_dataset(name, seed, noise=noise, version=version, engine=engine)
+                    data = [xr.load_dataset(files[f"flop_{k}"]) for k in range(3)]
+                choice = choose_actuator(data, ParameterSpace.t6())
+                assert choice is not None
+                choices.append(choice)
+            delays = [c.effect.law.delay if c.effect is not None else np.nan for c in choices]
+            print(f"| {engine} | {name} | {sum(c.measured for c in choices)}/{len(choices)} | "
+                  f"{_spread([c.law_rms for c in choices], 1e3)} | {_spread([c.motor_rms for c in choices], 1e3)} | "
+                  f"{_spread(delays, 1e3, 1)} |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--engine", nargs="+", choices=("synthetic", "bullet", "mujoco", "library"),
+    parser.add_argument("--engine", nargs="+", choices=("synthetic", "bullet", "mujoco", "mujoco-native", "library"),
                         default=["synthetic"], help="synthetic readings (CASES), the testbed robot in Bullet or "
                         "MuJoCo, or the library's own robot and motor (physics.simulation)")
     parser.add_argument("--seeds", type=int, default=10)
@@ -281,8 +316,14 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="3 seeds")
     parser.add_argument("--flops-version", type=int, default=2, help="of the testbed's flops (testbed.datasets)")
     parser.add_argument("--noise", type=float, default=2e-4, help="the node noise of the robots' flops [m]")
+    parser.add_argument("--choice", action="store_true", help="the robots' tables: which actuator the model takes "
+                        "(physics.actuator_choice) instead of the stage's figures")
     args = parser.parse_args()
     seeds = 3 if args.quick else args.seeds
+    if args.choice:
+        foreign = [e for e in args.engine if e != "synthetic"]
+        choice_table(foreign, range(args.first_seed, args.first_seed + seeds), args.flops_version, args.noise)
+        return
     if "synthetic" in args.engine:
         synthetic_table(seeds)
     foreign = [e for e in args.engine if e != "synthetic"]

@@ -27,6 +27,8 @@ targets (both ratios at most 0.5).
     .venv/bin/python benchmarks/mismatch.py --flops-version 2 --seeds 3 --first-seed 0 \
         --out benchmarks/results/mismatch-flops2.jsonl                  # flops the stage never saw
 
+``--source mujoco-native`` runs it on the robot rebuilt with MuJoCo's own tendons and actuators
+(benchmarks/testbed/mujoco_native.py), which shares no robot code with the others.
 ``--source mujoco`` runs it on the same robot and flops in MuJoCo (benchmarks/testbed/mujoco_robot.py),
 the third engine, which the stage was not developed on. ``--source own`` runs the stage on the
 project's own engine (the scenarios of benchmarks/effects.py, 1.5 s flops), where it should keep nothing.
@@ -34,6 +36,10 @@ project's own engine (the scenarios of benchmarks/effects.py, 1.5 s flops), wher
 ``--read-contact`` runs the stage on the contact the flops read (criticism.contact: flat end caps
 join the model first, as ``diagnose --read-contact`` does); "before" is then the model with the
 read parts, and ``bare_before`` adds the bare T6 re-tuned, the before of the runs without it.
+
+``--read-actuator`` runs the stage on the actuator law read from the fit flops' encoder readings
+when it fits them better than the motor model (physics.actuator_choice, as diagnose does);
+"before" is then the model with the measured actuator and ``bare_before`` the bare T6 re-tuned.
 
 ``--base EFFECT ...`` puts catalog effects into the model before the stage (e.g. ``cable_hysteresis`` on
 the hysteresis data: does the actuator law then pay?); they are re-tuned with the T6 and stay out of
@@ -60,7 +66,7 @@ from criticism.diagnose import split_masks
 from criticism.held_out import held_scores
 from criticism.mismatch import MismatchConfig, absorb_mismatch
 from physics import ReplayController, TrajectoryObjective, load_trajectory, simulate
-from physics.effects import EFFECT_TYPES
+from physics.effects import EFFECT_TYPES, effect_from_config
 from physics.model_file import effects_by_name
 
 LABELS = ("flop_0", "flop_1", "heldout_0")
@@ -75,29 +81,37 @@ def load(source: str, dataset: str, seed: int, noise: float, flops_version: int 
         return make_data(dataset, seed, noise=noise)[0]
     from testbed.datasets import cached_dataset
     files = cached_dataset(dataset, seed, noise=noise, version=flops_version,
-                           engine="mujoco" if source == "mujoco" else "bullet")
+                           engine=source if source in ("mujoco", "mujoco-native") else "bullet")
     return [load_trajectory(files[label]) for label in LABELS]
 
 
 def run_one(dataset: str, seed: int, noise: float, n_workers: int, source: str = "testbed",
             config: MismatchConfig | None = None, flops_version: int = 1, contact: bool = False,
-            base: tuple[str, ...] = ()) -> dict:
+            base: tuple[str, ...] = (), actuator: bool = False) -> dict:
     """The stage on one data set (``config``: the stage's, default MismatchConfig(); ``contact``: on
-    the parts the flops' contact law reads); the benchmark's row (JSON-ready)."""
+    the parts the flops' contact law reads; ``actuator``: on the actuator read from the fit flops'
+    encoders, physics.actuator_choice); the benchmark's row (JSON-ready)."""
+    from physics.actuator_choice import choose_actuator
+    from physics.parameters import ParameterSpace
+
     config = config or MismatchConfig()
     data = load(source, dataset, seed, noise, flops_version)
     start = time.perf_counter()
-    read = (read_contact(data).components if contact else ()) + (effects_by_name(list(base)) if base else ())
+    choice = choose_actuator(data[:2], ParameterSpace.t6()) if actuator else None
+    measured = (choice.effect,) if choice is not None and choice.effect is not None else ()
+    read = measured + (read_contact(data).components if contact else ()) + \
+        (effects_by_name(list(base)) if base else ())
     with TrajectoryObjective(data, horizon=25, loss="squared", n_workers=n_workers) as objective:
         fit, _ = split_masks(objective.segments, [2])
         report = absorb_mismatch(objective.with_effects(read), fit, [2], config=config, progress=False)
         nominal = held_scores(objective, objective.space.nominal, [2], config.drift_time)
         bare = (absorb_mismatch(objective, fit, [2], config=replace(config, rounds=0), progress=False).before.totals()
-                if read and contact else None)
+                if read and (contact or measured) else None)
     row = {"source": source, "components": [c.name for c in config.components], "rounds": config.rounds,
             "local_rounds": config.local.rounds, "flops_version": flops_version, "dataset": dataset, "seed": seed,
             "noise": noise,
             "read_contact": contact, "base": list(base), "read": [e.name for e in read], "bare_before": bare,
+            "read_actuator": actuator, "read_configs": [e.config() for e in read],
             "kept": [e.name for e in report.effects],
             "values": {t.name: t.values for t in report.trials if t.kept},
             "trials": [{"round": t.round, "name": t.name, "gain": t.gain, "values": t.values} for t in report.trials],
@@ -114,7 +128,9 @@ def noise_floor(row: dict) -> float:
     held-out flop's controls, its nodes get the data set's noise (seed 0), and the one-step error
     of that recording at the same θ is taken (what the stage could reach if it were exact)."""
     held = load(row.get("source", "testbed"), row["dataset"], row["seed"], row["noise"], row.get("flops_version", 1))[2]
-    effects = [EFFECT_TYPES[name]() for name in row.get("read", []) + row["kept"]]
+    read = ([effect_from_config(c) for c in row["read_configs"]] if "read_configs" in row
+            else [EFFECT_TYPES[name]() for name in row.get("read", [])])
+    effects = read + [EFFECT_TYPES[name]() for name in row["kept"]]
     t = np.asarray(held["time"].values, float)
     replay = ReplayController.of(held)
     theta = np.asarray(row["theta"], float)
@@ -162,7 +178,7 @@ def summarize(rows: list[dict]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--source", choices=["testbed", "mujoco", "own"], default="testbed",
+    ap.add_argument("--source", choices=["testbed", "mujoco", "mujoco-native", "own"], default="testbed",
                     help="the foreign testbed in Bullet (default), the same robot in MuJoCo (the third engine) or "
                          "the project's own engine (--dataset: a scenario of benchmarks/effects.py, e.g. none)")
     ap.add_argument("--dataset", default=None, help="data set (default: nominal on the testbed, none on own)")
@@ -184,6 +200,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the stage on the end caps the flops' contact law reads (criticism.contact)")
     ap.add_argument("--base", nargs="+", default=[], metavar="EFFECT",
                     help="effects in the model before the stage (physics.effects names, e.g. cable_hysteresis)")
+    ap.add_argument("--read-actuator", action="store_true",
+                    help="run the stage on the actuator read from the fit flops' encoders (physics.actuator_choice), "
+                         "as diagnose does; bare_before is then the bare T6 re-tuned")
     ap.add_argument("--summarize", default=None, metavar="JSONL", help="only print the table of saved rows")
     args = ap.parse_args(argv)
     if args.summarize:
@@ -199,7 +218,8 @@ def main(argv: list[str] | None = None) -> int:
         out.write_text("".join(json.dumps(r) + "\n" for r in saved))
     args.dataset = args.dataset or ("none" if args.source == "own" else "nominal")
     key = {(r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1),
-            r.get("read_contact", False), tuple(r.get("base", ())), r.get("local_rounds", 1)): r for r in saved}
+            r.get("read_contact", False), tuple(r.get("base", ())), r.get("local_rounds", 1),
+            r.get("read_actuator", False)): r for r in saved}
     config = MismatchConfig()
     if args.components:
         config = replace(config, components=tuple(effects_by_name(args.components)))
@@ -210,10 +230,10 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for seed in seeds:
         row = key.get((args.source, args.dataset, seed, args.noise, args.flops_version, args.read_contact,
-                       tuple(args.base), config.local.rounds))
+                       tuple(args.base), config.local.rounds, args.read_actuator))
         if row is None:
             row = run_one(args.dataset, seed, args.noise, args.workers, args.source, config, args.flops_version,
-                          args.read_contact, tuple(args.base))
+                          args.read_contact, tuple(args.base), args.read_actuator)
             with out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(f"{args.dataset} seed {seed}: kept {row['kept']}, {row['seconds']:.0f} s", flush=True)

@@ -208,7 +208,7 @@ def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, A
     the verdicts are not."""
     import warnings
 
-    from belief.presets import minimum_budget, run_preset
+    from belief.presets import minimum_budget, reserved_evaluations, run_preset
     from embeddings import REMBO
 
     if name == "cma-es":
@@ -217,7 +217,8 @@ def run_method(name: str, objective: Recorder, space: Any, decoders: dict[str, A
         return run_botorch(objective, space, budget=settings.budget, seed=seed, n_init=settings.n_init or 16)
     preset, latent = method_preset(name, space, settings), PRESET_OF[name][1]
     decoder = REMBO(space, dim=5, seed=seed) if latent == "rembo-5" else decoders.get(latent) if latent else None
-    budget = max(settings.budget, minimum_budget(preset, space.dim))
+    verdicts = 0 if preset.local_step else reserved_evaluations(preset, space.dim)   # not logged: outside the budget
+    budget = max(settings.budget + verdicts, minimum_budget(preset, space.dim))
 
     def on_stage(stage: str) -> None:
         objective.count_residuals = stage == "local_step"

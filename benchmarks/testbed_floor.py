@@ -6,6 +6,8 @@ Rows (noise-free observations, 3 s flops at 100 Hz, the three flops and the held
 - ``testbed``: testbed nominal data sets (benchmarks/testbed, Bullet), seeds 0..S-1;
 - ``mujoco``: the same robot and flops in MuJoCo (testbed.mujoco_robot, the third engine), with
   ``--engines bullet mujoco``;
+- ``mujoco-native``: the robot rebuilt with MuJoCo's own tendons and actuators
+  (testbed.mujoco_native, sharing no robot code), with ``--engines mujoco-native``;
 - ``dart dt/2``: DART's own nominal flops simulated with a 0.5 ms step (the model runs at 1 ms):
   what DART differs from itself by when only the integration changes.
 
@@ -30,7 +32,7 @@ from physics import FlopController, ModelOptions, ParameterSpace, TrajectoryObje
 from testbed.datasets import ENGINES, cached_dataset
 
 TIMES = (0.2, 0.3, 0.5, 1.0)
-LABEL = {"bullet": "testbed", "mujoco": "mujoco"}
+LABEL = {"bullet": "testbed", "mujoco": "mujoco", "mujoco-native": "mujoco-native"}
 
 
 def floor_row(ds: xr.Dataset, theta: np.ndarray) -> tuple[float, ...]:

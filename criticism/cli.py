@@ -21,6 +21,7 @@ from criticism.mismatch import MismatchConfig
 from criticism.report import diagnosis_text, write_report
 from criticism.search import CriticismConfig
 from criticism.stage_journal import STAGE_JOURNAL
+from physics.actuator_choice import add_actuator_option
 from physics.cli_check import preflight
 from physics.model_file import effects_by_name
 from physics.outputs import check_output_dir, output_dir
@@ -74,6 +75,7 @@ def register_diagnose(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue the journals in OUT (an error when missing or of another problem); without it a "
                         "journal of another problem is set aside (identify_pass0.1.sqlite) and the run starts afresh")
+    add_actuator_option(p.add_argument_group("actuator"))
     add_prior_box_options(p)
     p.add_argument("--dt", type=float, default=None, metavar="SECONDS",
                    help="physics step; must divide every file's sampling interval (default: per file, the largest "
@@ -138,7 +140,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     config = DiagnoseConfig(passes=args.passes, budget=args.budget, candidates=args.candidates, horizon=args.horizon,
                             seed=args.seed, mismatch=None if args.no_mismatch else MismatchConfig(),
                             read_contact=args.read_contact, criticism=_criticism(args.fit_rounds),
-                            suspects=args.suspects)
+                            suspects=args.suspects, actuator=args.actuator)
     _before_run(args, config)
     with output_dir(args.out):          # removed again if the run fails before writing into it
         diagnosis = run_with_journals(

@@ -46,25 +46,25 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from belief.belief import Belief
-from belief.bounds import AT_BOUND_TOLERANCE, AtBound
+from belief.bounds import AT_BOUND_TOLERANCE
 from belief.grid import SobolCandidates
 from belief.identify import identify
 from belief.posterior import PosteriorConfig
 from belief.proposers import BOProposer, SobolDesign, WarmStart
 from belief.result import IdentificationResult
-from criticism.candidate import Candidate
 from criticism.contact import ContactReading, read_contact
+from criticism.diagnosis import Diagnosis, Pass, read_components
 from criticism.errors import CriticismError
 from criticism.mismatch import MismatchConfig, MismatchReport, superseded
 from criticism.residuals import residual_dataset, residual_summary
-from criticism.revisit import Revisit, chosen, revisit_stage
+from criticism.revisit import revisit_stage
 from criticism.run_estimate import Announcer, run_estimate
-from criticism.search import Criticism, CriticismConfig, criticize
+from criticism.search import CriticismConfig, criticize
 from criticism.stage_journal import journalled_stage
-from criticism.wider_box import WiderBoxCheck, WiderBoxConfig, check_wider_box, retuned_at_bounds, run_noise_var
+from criticism.wider_box import WiderBoxConfig, check_wider_box, retuned_at_bounds, run_noise_var
 from embeddings import Identity
-from physics.effects import Effect, catalog, effect_from_config
+from physics.actuator_choice import ActuatorMode, choose_actuator, has_readings
+from physics.effects import Effect, catalog
 from physics.objective import Objective
 from physics.parameters import ParameterSpace
 from physics.tensegrity import ModelOptions
@@ -92,7 +92,9 @@ class DiagnoseConfig:
     ranking's best effects get such a look, so that one hidden below a smaller one still gets it
     (the pass takes the look that found its effect with the most evidence, revisit.chosen);
     wider_box: the test of the parameters the re-tuning left at a bound, a re-fit in a wider box
-    (criticism.wider_box; None: untested)."""
+    (criticism.wider_box; None: untested); actuator: with encoder readings in the data, whether the
+    actuator law read from them replaces the motor model before anything else runs
+    (physics.actuator_choice: "auto" when it fits the readings better, "measured", "model")."""
 
     passes: int = 2
     budget: int = 40
@@ -108,6 +110,7 @@ class DiagnoseConfig:
     revisit: bool = True
     suspects: int = 3
     wider_box: WiderBoxConfig | None = field(default_factory=WiderBoxConfig)
+    actuator: ActuatorMode = "auto"
 
     def __post_init__(self) -> None:
         if (self.passes < 1 or self.budget < 2 or self.candidates < self.budget or self.horizon < 1
@@ -117,116 +120,12 @@ class DiagnoseConfig:
         if not (isinstance(self.bound_tolerance, (int, float)) and 0 <= self.bound_tolerance < 0.5):
             raise CriticismError(f"DiagnoseConfig.bound_tolerance must be a fraction of the box width in [0, 0.5), "
                                  f"got {self.bound_tolerance!r}.")
+        if self.actuator not in ("auto", "measured", "model"):
+            raise CriticismError(f"DiagnoseConfig.actuator must be 'auto', 'measured' or 'model', got "
+                                 f"{self.actuator!r}.")
         if self.wider_box is not None and not isinstance(self.wider_box, WiderBoxConfig):
             raise CriticismError(f"DiagnoseConfig.wider_box must be a WiderBoxConfig or None (untested), got "
                                  f"{type(self.wider_box).__name__}.")
-
-
-@dataclass
-class Pass:
-    """One pass: the model's effects, θ̃ (re-tuned by criticism) and its parameter names, the
-    criticism, the held-out error per trajectory before, and (when an effect was added) θ̂ and the
-    error after, and the Belief; at_bounds: the parameters the re-tuning left at a bound of the box
-    (criticism.wider_box.retuned_at_bounds); wider_box: what re-fitting them in a wider box found
-    (criticism.wider_box.check_wider_box; None when none is pinned or the test is off)."""
-
-    effects: tuple[str, ...]
-    names: tuple[str, ...]
-    theta: np.ndarray
-    criticism: Criticism
-    held_before: dict[str, float]
-    added: str | None = None
-    names_after: tuple[str, ...] = ()
-    theta_after: np.ndarray | None = None
-    held_after: dict[str, float] | None = None
-    belief_after: Belief | None = None
-    at_bounds: tuple[AtBound, ...] = ()
-    looks: tuple[Revisit, ...] = ()
-    wider_box: WiderBoxCheck | None = None
-
-    @property
-    def revisit(self) -> Revisit | None:
-        """The second look the pass takes (criticism.revisit.chosen); None without looks."""
-        return chosen(self.looks)
-
-    @property
-    def second_look(self) -> Revisit | None:
-        """The second look (criticism.revisit) when it found this pass's effect; None when
-        criticism found it itself or nothing was found."""
-        found_here = self.criticism.found is None and self.revisit is not None and self.revisit.found
-        return self.revisit if found_here else None
-
-    @property
-    def found(self) -> Candidate | None:
-        """The row of the effect this pass found: criticism's, or the second look's (criticism.revisit)."""
-        if self.criticism.found is not None:
-            return self.criticism.found
-        return self.second_look.row if self.second_look is not None else None
-
-    @property
-    def additions(self) -> tuple[Effect, ...]:
-        """The effects this pass adds to the model: the found one, then the components the second
-        look let in with it; () when nothing was found."""
-        row = self.found
-        if row is None:
-            return ()
-        extra = self.second_look.components if self.second_look is not None else ()
-        return (effect_from_config(row.config),) + extra
-
-    def estimates(self) -> dict[str, dict[str, Any]]:
-        """The added effect's parameters after re-identification: name -> {"value" (best θ),
-        "lower", "upper" (the Belief's credible interval), "level", "verdict", "reason", "at_bound"
-        ("lower" or "upper" when pinned there, else "")}; empty when nothing was added."""
-        if self.theta_after is None:
-            return {}
-        names = self.names_after[len(self.names):]
-        after = dict(zip(self.names_after, self.theta_after.tolist(), strict=True))
-        out: dict[str, dict[str, Any]] = {n: {"value": after[n]} for n in names}
-        if self.belief_after is not None:
-            m = self.belief_after.marginals()
-            for n in names:
-                row = m.sel(parameter=n)
-                out[n].update(lower=float(row["lower"]), upper=float(row["upper"]), level=float(m.attrs["level"]),
-                              verdict=str(row["verdict"].values), reason=str(row["reason"].values),
-                              at_bound=str(row["at_bound"].values))
-        return out
-
-    @property
-    def reduction(self) -> float | None:
-        """1 - E_after / E_before on all held-out data, or None when nothing was added."""
-        if self.held_after is None:
-            return None
-        return 1.0 - sum(self.held_after.values()) / sum(self.held_before.values())
-
-
-@dataclass
-class Diagnosis:
-    """Result of :func:`diagnose`: the passes, the final effects, the held-out trajectories
-    (indices; empty with one trajectory: then errors are in-sample), the first identification's
-    Belief (None if it made none), the objective's settings, the mismatch stage's report, the
-    effects measured at rest (:func:`shown_at_rest`, bound to the data) and the contact read from
-    the flops (criticism.contact; None when not read)."""
-
-    passes: list[Pass]
-    effects: tuple[str, ...]
-    held_out: list[int]
-    belief: Belief | None
-    settings: dict[str, Any]
-    mismatch: MismatchReport | None = None
-    measured: tuple[Effect, ...] = ()
-    contact: ContactReading | None = None
-
-    @property
-    def found(self) -> list[str]:
-        """The effects added, in order: those measured at rest, then those criticism found."""
-        return [e.name for e in self.measured] + [p.added for p in self.passes if p.added is not None]
-
-    @property
-    def first_model(self) -> tuple[Effect, ...]:
-        """The effects of the model of pass 1: the components the contact reading put in, the
-        mismatch stage's, then those measured at rest."""
-        read = self.contact.components if self.contact is not None else ()
-        return read + (self.mismatch.effects if self.mismatch is not None else ()) + self.measured
 
 
 def split_masks(segments: Sequence[str], held_out: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -342,9 +241,13 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
             announce.line(run_estimate(fit_objective, config, n_effects=len(tries)))
         first = [n for n, on in (("contact reading", config.read_contact), ("mismatch stage", config.mismatch))
                  if on] or ["first model"]
+        actuator = None
+        if config.actuator != "model" and has_readings(data):
+            with announce.stage("actuator reading"):
+                actuator = choose_actuator(data, space or ParameterSpace.t6(), mode=config.actuator, options=options)
         with announce.stage(" and ".join(first)):
             contact = read_contact(data) if config.read_contact else None
-            read = contact.components if contact is not None else ()
+            read = read_components(actuator, contact)
             tries = _with_read_bias(tries, contact)
             stage = (journalled_stage(full.with_effects(read), fit, held_idx, config=config.mismatch,
                                       journal_dir=journals, progress=progress)
@@ -378,7 +281,8 @@ def diagnose(trajectories: Sequence[xr.Dataset], *, held_out: Sequence[int] | No
                                       journal=_journal(journals, k + 1), progress=progress)
             _record_after(step, row.name, full.with_effects(added), ident, held)
         settings = _settings(config, fit_idx, full.segments)
-        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown, contact)
+        return Diagnosis(passes, tuple(e.name for e in added), held_idx, first_belief, settings, stage, shown, contact,
+                         actuator)
     finally:
         full.close()
 
@@ -408,7 +312,7 @@ def _settings(config: DiagnoseConfig, fit_idx: Sequence[int], segments: Sequence
     return {"horizon": config.horizon, "windows": config.windows, "budget": config.budget,
             "candidates": config.candidates, "seed": config.seed, "passes": config.passes,
             "bound_tolerance": config.bound_tolerance, "measure_at_rest": config.measure_at_rest,
-            "read_contact": config.read_contact, "revisit": config.revisit,
+            "read_contact": config.read_contact, "revisit": config.revisit, "actuator": config.actuator,
             **({"suspects": config.suspects} if config.suspects != 1 else {}),
             "fit_trajectories": list(fit_idx), "segments": list(segments)}
 

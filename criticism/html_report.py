@@ -21,8 +21,8 @@ import xarray as xr
 from belief.bounds import AT_BOUND_TOLERANCE
 from belief.html_report import Page, command_line, data_section, parameter_table, reproduce_section
 from criticism.candidate import place_text, values_text
-from criticism.diagnose import Diagnosis, Pass
-from criticism.report import diagnosis_text, estimate_verdict
+from criticism.diagnosis import Diagnosis, Pass
+from criticism.report import actuator_text, diagnosis_text, estimate_verdict
 from criticism.wider_box import tested_text
 from physics.parameters import T6_NOMINAL
 
@@ -115,6 +115,12 @@ def write_diagnose_report(out: str | Path, d: Diagnosis, trajectories: Sequence[
     page.code(command)
     page.table(["setting", "value"], _settings(d))
     data_section(page, list(args.data), trajectories, skipped=bool(getattr(args, "skip_checks", False)))
+    if d.actuator is not None:
+        page.section("Actuator read from the encoders")
+        page.paragraph("Before any identification, the actuator law was read from the commands and the encoder "
+                       "readings alone (physics.actuator_readings), and compared with the motor model's prediction "
+                       "of the same readings (physics.actuator_choice).")
+        page.code("\n".join(actuator_text(d)))
     if d.contact is not None:
         page.section("Contact read from the flops")
         page.paragraph("The heights of the nodes touching the floor, against their rods' tilt, tell the end caps' "

@@ -179,9 +179,9 @@ class MismatchReport:
 
 def superseded(effects: Sequence[Effect], kept: Sequence[Effect]) -> list[Effect]:
     """``effects`` without those that replace a component one of ``kept`` already replaced
-    (COMPONENT_GROUPS) or that are already in ``kept``."""
+    (COMPONENT_GROUPS, Effect.replaces) or that are already in ``kept``."""
     taken = {e.name for e in kept}
-    blocked = set(taken).union(*(group for group in COMPONENT_GROUPS if group & taken))
+    blocked = set(taken).union(*(group for group in COMPONENT_GROUPS if group & taken), *(e.replaces for e in kept))
     return [e for e in effects if e.name not in blocked]
 
 

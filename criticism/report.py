@@ -27,7 +27,7 @@ import xarray as xr
 
 from belief.bounds import AT_BOUND_TOLERANCE
 from belief.verdicts import plain_reason, rule_of
-from criticism.diagnose import Diagnosis, Pass
+from criticism.diagnosis import Diagnosis, Pass
 from criticism.residuals import residual_dataset
 from criticism.wider_box import tested_text
 from physics.effects import Effect
@@ -38,14 +38,15 @@ from physics.trajectory_objective import TrajectoryObjective
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["diagnosis_text", "diagnosis_record", "write_report", "estimate_verdict"]
+__all__ = ["diagnosis_text", "diagnosis_record", "write_report", "estimate_verdict", "actuator_text"]
 
 
 def diagnosis_text(d: Diagnosis) -> str:
     """Ranking per pass, the parameters the re-tuning left at a bound (model inadequacy) with what
     re-fitting them in a wider box found (criticism.wider_box), and the held-out error before and
     after, as plain text (after the mismatch stage's, when it ran)."""
-    out = [] if d.contact is None else [d.contact.text()]
+    out = actuator_text(d)
+    out += [] if d.contact is None else [d.contact.text()]
     out += [] if d.mismatch is None else [d.mismatch.text()]
     read = d.contact.bias if d.contact is not None else None
     out += [f"{'read from the flops' if e is read else 'measured at rest'}: {e.name} ({_measured(e)}), added before "
@@ -111,6 +112,18 @@ def _estimate(name: str, e: dict[str, Any]) -> str:
             f"{estimate_verdict(e)})")
 
 
+def actuator_text(d: Diagnosis) -> list[str]:
+    """The lines on the actuator read from the encoders (physics.actuator_choice), [] when not read:
+    what it found, whether it replaced the motor model, the parameters it leaves inert."""
+    if d.actuator is None:
+        return []
+    out = d.actuator.lines()
+    if d.actuator.inert:
+        out.append(f"inert under the measured actuator (the model no longer reads them; their intervals say "
+                   f"nothing): {', '.join(d.actuator.inert)}")
+    return out
+
+
 def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
     """The JSON-able record of diagnosis.json: settings, and per pass the criticism, θ̃ ("theta"),
     the parameters at a bound after the re-tuning ("at_bounds", belief.bounds.AtBound.as_dict) and
@@ -118,11 +131,13 @@ def diagnosis_record(d: Diagnosis) -> dict[str, Any]:
     the held-out errors and the re-identified estimates, the second look the pass took ("revisit")
     and every second look ("looks", criticism.revisit); "mismatch": the mismatch stage's record or None;
     "measured": the configs of the effects measured at rest; "contact": the contact read from the
-    flops (criticism.contact) or None."""
+    flops (criticism.contact) or None; "actuator": the actuator read from the encoders
+    (physics.actuator_choice.ActuatorChoice.as_dict) or None."""
     return {"held_out": d.held_out, "effects": list(d.effects), "settings": d.settings,
             "mismatch": None if d.mismatch is None else d.mismatch.as_dict(),
             "measured": [e.config() for e in d.measured],
             "contact": None if d.contact is None else d.contact.as_dict(),
+            "actuator": None if d.actuator is None else d.actuator.as_dict(),
             "passes": [{"effects": list(p.effects), "criticism": p.criticism.as_dict(), "held_before": p.held_before,
                         "added": p.added, "held_after": p.held_after, "estimates": p.estimates(),
                         "theta_after": None if p.theta_after is None

@@ -40,7 +40,7 @@ import numpy as np
 from belief.belief import Belief
 from belief.verdicts import VERDICTS, because
 from criticism.candidate import Candidate, effective_counts, scored
-from criticism.mismatch import MismatchConfig, MismatchReport
+from criticism.mismatch import MismatchConfig, MismatchReport, superseded
 from criticism.search import Criticism, CriticismConfig
 from criticism.stage_journal import journalled_stage
 from physics.effects import Effect, effect_from_config
@@ -103,17 +103,17 @@ class Revisit:
         return belief.overruled(changes) if changes else belief
 
 
-def _suspects(crit: Criticism, stage: MismatchReport, config: MismatchConfig,
-              n: int) -> list[tuple[Candidate, list[Effect]]]:
+def _suspects(crit: Criticism, stage: MismatchReport, config: MismatchConfig, n: int,
+              present: Sequence[Effect] = ()) -> list[tuple[Candidate, list[Effect]]]:
     """Of the n best-ranked effects, those with positive evidence and a joint fit, each with the
-    stage's rejected components worth a second look with it (module docstring); [] when criticism
-    found an effect itself."""
+    stage's rejected components worth a second look with it (module docstring), none that an effect
+    ``present`` in the model replaces (Effect.replaces); [] when criticism found an effect itself."""
     if crit.found is not None or not stage.effects:
         return []
     kept = {e.name for e in stage.effects}
     out = []
     for row in [c for c in crit.ranking[:n] if c.evidence > 0 and c.theta]:
-        rejected = [c for c in config.components if c.name not in kept and c.name != row.name]
+        rejected = [c for c in superseded(config.components, present) if c.name not in kept and c.name != row.name]
         if rejected:
             out.append((row, rejected))
     return out
@@ -137,7 +137,7 @@ def revisit_stage(model: TrajectoryObjective, crit: Criticism, stage: MismatchRe
     held_idx: the held-out trajectories; journal_dir: the top suspect's stage journal (the k-th
     suspect's beside it, suffixed "-k"). () when there is no suspect or nothing to try again."""
     looks = []
-    for k, (ranked, rejected) in enumerate(_suspects(crit, stage, config, suspects)):
+    for k, (ranked, rejected) in enumerate(_suspects(crit, stage, config, suspects, model.effects)):
         journal = journal_dir if journal_dir is None or k == 0 else journal_dir.with_name(f"{journal_dir.name}-{k}")
         looks.append(_look(model, crit, ranked, rejected, fit, held, held_idx, config=config, criticism=criticism,
                            journal_dir=journal, progress=progress))

@@ -40,7 +40,7 @@ from numba import njit
 
 from physics.errors import ParameterError
 
-__all__ = ["LawForm", "ActuatorLaw", "CANDIDATE_FORMS", "predict_readings", "chain_readings"]
+__all__ = ["LawForm", "ActuatorLaw", "CANDIDATE_FORMS", "predict_readings", "chain_readings", "interval_step"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -163,7 +163,7 @@ def _predict(targets: np.ndarray, floors: np.ndarray, shift: int, frac: float, r
 
 
 @njit(cache=True)
-def _interval_step(v: float, lag_state: float, u: float, rate: float, tau: float, h: float) -> tuple[float, float]:
+def interval_step(v: float, lag_state: float, u: float, rate: float, tau: float, h: float) -> tuple[float, float]:
     """(v, L) after one interval h [s] with target u held: v ramps toward u at up to ``rate``
     (a ramp of slope ±rate for a = min(|u - v| / rate, h), then constant), L follows v through the
     lag τ exactly: on a ramp v0 + σt, L(t) = v(t) - στ + (L0 - v0 + στ) e^(-t/τ)."""
@@ -200,6 +200,6 @@ def _chain(early: np.ndarray, late: np.ndarray, floors: np.ndarray, rate: float,
         out[0, j] = u
         for i in range(n - 1):
             if h_early > 0.0:
-                v, lag = _interval_step(v, lag, max(early[i, j], floors[i, j]), rate, tau, h_early)
-            v, lag = _interval_step(v, lag, max(late[i, j], floors[i, j]), rate, tau, h_late)
+                v, lag = interval_step(v, lag, max(early[i, j], floors[i, j]), rate, tau, h_early)
+            v, lag = interval_step(v, lag, max(late[i, j], floors[i, j]), rate, tau, h_late)
             out[i + 1, j] = lag

@@ -32,11 +32,12 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numba import njit
 
+from physics.actuator_laws import ActuatorLaw, interval_step
 from physics.cables import cable_tensions
 from physics.errors import ParameterError
 
-__all__ = ["MotorGains", "motor_step", "rate_limited_step", "tension_limited_step", "Actuator", "MotorActuator",
-           "RateLimitedActuator", "TensionLimitedActuator"]
+__all__ = ["MotorGains", "motor_step", "rate_limited_step", "tension_limited_step", "law_step", "Actuator",
+           "MotorActuator", "RateLimitedActuator", "TensionLimitedActuator", "LawActuator"]
 
 
 @dataclass(frozen=True)
@@ -131,7 +132,29 @@ def tension_limited_step(rest: np.ndarray, speed: np.ndarray, target: np.ndarray
         rest[j] = r
 
 
-_MOTOR, _RATE_LIMITED, _TENSION_LIMITED = 0, 1, 2
+@njit(cache=True)
+def law_step(rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray, rate: float, tau: float,
+             slack: float, stiffness: float, min_rest: float, dt: float) -> None:
+    """One physics step dt [s] of an actuator law read from the encoders (physics.actuator_laws):
+    the motor acts on u = max(L_pref, L0 + T / k - s), the stretch T / k standing for the observed
+    cable length less L0 (s = inf: no tension limit); v ramps toward u at up to ``rate`` [m/s]
+    (inf: at once) and L0 follows v through the lag τ = ``tau`` [s] (0: L0 = v), both integrated
+    exactly over dt (physics.actuator_laws.interval_step). ``speed`` (24,) holds dL0/dt [m/s], which
+    with a lag is (v - L0) / τ, so v = L0 + τ dL0/dt is rebuilt from it; rest and speed change in place."""
+    for j in range(rest.shape[0]):
+        u = target[j]
+        floor = rest[j] + tension[j] / stiffness - slack
+        if floor > u:
+            u = floor
+        before = rest[j]
+        v = before + tau * speed[j] if tau > 0.0 else before
+        v, lag = interval_step(v, before, u, rate, tau, dt)
+        after = lag if lag > min_rest else min_rest
+        rest[j] = after
+        speed[j] = (v - after) / tau if tau > 0.0 else (after - before) / dt
+
+
+_MOTOR, _RATE_LIMITED, _TENSION_LIMITED, _LAW = 0, 1, 2, 3
 
 
 @njit(cache=True)
@@ -141,7 +164,8 @@ def _follow(kind: int, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarr
     """Rest lengths and speeds (T x m each) of an actuator (``kind``) driven along observed cable
     lengths and rates (T x m; lengths linear between samples, rates constant per interval), one
     target row per physics step (substeps (T - 1) x m), tensions from physics.cables.cable_tensions;
-    ``motor`` holds the motor model's arguments (kind _MOTOR) or (maxTens, stiffness) first (_TENSION_LIMITED)."""
+    ``motor`` holds the motor model's arguments (kind _MOTOR), or first (maxTens, stiffness)
+    (_TENSION_LIMITED) or (slack, stiffness, tau) (_LAW)."""
     n, m = lengths.shape
     rest, speed = rest0.copy(), np.zeros(m)
     tension, now = np.empty(m), np.empty(m)
@@ -162,6 +186,9 @@ def _follow(kind: int, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarr
             cable_tensions(now, rates[i], rest, law[0], law[1], law[2], law[3], tension)
             if kind == _TENSION_LIMITED:      # motor = (maxTens, stiffness, ...)
                 tension_limited_step(rest, speed, target, tension, rate, motor[0], motor[1], min_rest, dt)
+                continue
+            if kind == _LAW:                  # motor = (slack, stiffness, tau, ...)
+                law_step(rest, speed, target, tension, rate, motor[2], motor[0], motor[1], min_rest, dt)
                 continue
             motor_step(rest, speed, target, tension, motor[0], motor[1], motor[2], motor[3], motor[4], motor[5],
                        motor[6], motor[7], motor[8])
@@ -248,6 +275,38 @@ class TensionLimitedActuator:
         limits = (self.max_tension, self.stiffness) + (1.0,) * 7     # the rest unused by this kind
         return _follow(_TENSION_LIMITED, lengths, rates, targets, rest0, substeps, law, limits, self.rate, self._min,
                        self._dt)
+
+    def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
+        """Its speed state is the rest-length rate itself [m/s]."""
+        return np.asarray(rate, float).copy()
+
+
+class LawActuator:
+    """An actuator law read from the encoders (physics.actuator_readings) as the model's actuator
+    (:func:`law_step`): its rate, lag and tension slack, per-cable offsets (24,) [m] added to every
+    target (the readings settle that far off the command), the cables' ``stiffness`` k [N/m] to turn
+    tension into stretch. Its delay is the model's command delay (physics.effects.MeasuredActuator)."""
+
+    def __init__(self, law: ActuatorLaw, offsets: np.ndarray, stiffness: float, gains: MotorGains, dt: float) -> None:
+        offsets = np.asarray(offsets, float)
+        if offsets.shape != (24,) or not np.all(np.isfinite(offsets)):
+            raise ParameterError(f"LawActuator needs 24 finite offsets [m], got shape {offsets.shape}.")
+        if not (np.isfinite(stiffness) and stiffness > 0):
+            raise ParameterError(f"LawActuator.stiffness must be > 0 N/m, got {stiffness!r}.")
+        self.law, self.offsets, self.stiffness = law, offsets, float(stiffness)
+        self._min, self._dt = gains.min_rest_length, float(dt)
+        self._args = (float(law.rate), float(law.time_constant), float(law.tension_slack), self.stiffness)
+
+    def step(self, rest: np.ndarray, speed: np.ndarray, target: np.ndarray, tension: np.ndarray) -> None:
+        rate, tau, slack, k = self._args
+        law_step(rest, speed, target + self.offsets, tension, rate, tau, slack, k, self._min, self._dt)
+
+    def follow(self, lengths: np.ndarray, rates: np.ndarray, targets: np.ndarray, rest0: np.ndarray,
+               substeps: int, law: tuple) -> tuple[np.ndarray, np.ndarray]:
+        rate, tau, slack, k = self._args
+        parts = (slack, k, tau) + (1.0,) * 6     # the rest unused by this kind
+        return _follow(_LAW, lengths, rates, np.ascontiguousarray(targets + self.offsets), rest0, substeps, law,
+                       parts, rate, self._min, self._dt)
 
     def speed_from_rest(self, rate: np.ndarray) -> np.ndarray:
         """Its speed state is the rest-length rate itself [m/s]."""

@@ -138,7 +138,9 @@ def check_measurements(space: ParameterSpace, measurements: Sequence[Measurement
 @dataclass(frozen=True)
 class MeasurementPrior:
     """The Gaussian prior of the user's ``measurements`` on the box ``space`` (every parameter), with
-    the parameters in ``fixed`` (name -> SI value) held at their values (module docstring).
+    the parameters in ``fixed`` (name -> SI value) held at their values (module docstring); ``inert``:
+    those of ``fixed`` held not by the user but because the model no longer reads them (a measured
+    actuator makes the motor parameters inert, physics.actuator_choice).
 
     θ rows are in the order of :attr:`free_space`, the parameters the search sees: (n x D_f) or
     (D_f,). Belief consumes it in two steps: the posterior's log prior over cells (log P of a cell
@@ -150,6 +152,7 @@ class MeasurementPrior:
     space: ParameterSpace
     measurements: tuple[Measurement, ...] = ()
     fixed: Mapping[str, float] = field(default_factory=dict)
+    inert: tuple[str, ...] = ()
     free_space: ParameterSpace = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -162,6 +165,19 @@ class MeasurementPrior:
         object.__setattr__(self, "measurements", measurements)
         object.__setattr__(self, "fixed", MappingProxyType(fixed))
         object.__setattr__(self, "free_space", _free_space(self.space, fixed))
+        if not set(self.inert) <= set(fixed):
+            raise MeasurementError(f"inert parameters {sorted(set(self.inert) - set(fixed))} must also be fixed.")
+        object.__setattr__(self, "inert", tuple(self.inert))
+
+    def with_inert(self, names: Sequence[str]) -> MeasurementPrior:
+        """This prior with ``names`` also held at their nominal values as inert, except those the user
+        measured or fixed (their values stand)."""
+        mine = set(self.fixed) | {m.name for m in self.measurements}
+        extra = {n: float(self.space.nominal[self.space.index(n)]) for n in names if n not in mine}
+        if not extra:
+            return self
+        return MeasurementPrior(self.space, self.measurements, {**self.fixed, **extra},
+                                inert=tuple(self.inert) + tuple(n for n in self.space.names if n in extra))
 
     @property
     def units(self) -> tuple[str, ...]:
@@ -229,9 +245,13 @@ class MeasurementPrior:
             lines.append("Measured by the user:")
             lines += [f"  {m.name} = {m.value:.6g} ± {m.sd:.3g}{unit_text(unit)}  ({_describe(self.space, m.name)})"
                       for m, unit in zip(self.measurements, self.units, strict=True)]
-        if self.fixed:
+        user = {n: v for n, v in self.fixed.items() if n not in self.inert}
+        if user:
             lines.append("Fixed by the user (not identified):")
-            lines += [f"  {name} = {value:.6g}{unit_text(self.space[name].unit)}" for name, value in self.fixed.items()]
+            lines += [f"  {name} = {value:.6g}{unit_text(self.space[name].unit)}" for name, value in user.items()]
+        if self.inert:
+            lines.append("Held at nominal, inert (the measured actuator replaces the motor that read them): "
+                         + ", ".join(self.inert))
         return "\n".join(lines)
 
     def config(self) -> dict[str, Any]:
@@ -239,7 +259,7 @@ class MeasurementPrior:
         return {"kind": "measurements",
                 "measurements": [{"name": m.name, "value": m.value, "sd": m.sd, "unit": unit}
                                  for m, unit in zip(self.measurements, self.units, strict=True)],
-                "fixed": dict(self.fixed)}
+                "fixed": dict(self.fixed), **({"inert": list(self.inert)} if self.inert else {})}
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any], space: ParameterSpace) -> MeasurementPrior:
@@ -253,7 +273,8 @@ class MeasurementPrior:
                 raise MeasurementError(f"the record measures {entry['name']} in {entry['unit']!r}, the space in "
                                        f"{unit!r}; convert it to {unit}.")
         measurements = tuple(Measurement(str(e["name"]), e["value"], e["sd"]) for e in config.get("measurements", []))
-        return cls(space, measurements, {str(k): float(v) for k, v in config.get("fixed", {}).items()})
+        return cls(space, measurements, {str(k): float(v) for k, v in config.get("fixed", {}).items()},
+                   inert=tuple(str(n) for n in config.get("inert", ())))
 
 
 def _describe(space: ParameterSpace, name: str) -> str:

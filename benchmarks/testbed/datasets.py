@@ -1,9 +1,12 @@
 """Named data sets of the testbed robot: each one robot, three flops and a held-out flop.
 
-A data set's robot moves in one of two engines (``ENGINES``): ``bullet`` (the testbed, the
-default) or ``mujoco`` (a third engine, held back; docs/third-engine.md). The robot, the flops'
-plans (headings, actuation) and the noise are the same in both; the rigid bodies, contact and
-integration differ, and so may the cables the controller picks by trial on the robot.
+A data set's robot moves in one of three engines (``ENGINES``): ``bullet`` (the testbed, the
+default), ``mujoco`` (a third engine, held back; docs/third-engine.md) or ``mujoco-native`` (the
+hardware rebuilt in MuJoCo's own tendons and pid winches, sharing no robot code:
+testbed.mujoco_native; it has no drag, hysteresis or ground viscosity). The robot, the flops'
+plans (headings, actuation) and the noise are the same in all; the rigid bodies, contact and
+integration differ (and in ``mujoco-native`` the cables and actuators), and so may the cables
+the controller picks by trial on the robot.
 
 A data set is one robot (θ and effects) settled for 3 s on a face; from that same rest state it
 makes three flops toward headings 120° apart (rotated by an angle drawn from the seed) and one
@@ -41,7 +44,7 @@ __all__ = ["DATASETS", "STREAMS", "ENGINES", "FLOP_VERSIONS", "Robot", "robot_fo
 
 SETTLE_S = 3.0
 FLOP_VERSIONS = (1, 2)
-ENGINES = ("bullet", "mujoco")
+ENGINES = ("bullet", "mujoco", "mujoco-native")
 
 
 @dataclass(frozen=True)
@@ -128,6 +131,11 @@ def build_robot(robot: Robot, engine: str = "bullet", *, ground_rolling: float =
         if ground_rolling != 1.0:
             raise ValueError("ground_rolling is Bullet's; the MuJoCo robot has no rolling friction.")
         return MujocoRobot(robot.theta, robot.effects)
+    if engine == "mujoco-native":
+        from testbed.mujoco_native import NativeMujocoRobot
+        if ground_rolling != 1.0:
+            raise ValueError("ground_rolling is Bullet's; the mujoco-native robot has no rolling friction.")
+        return NativeMujocoRobot(robot.theta, robot.effects)
     raise ValueError(f"unknown engine {engine!r}; choose from {ENGINES}.")
 
 

@@ -1,7 +1,7 @@
 """physics.effects: physical effects as composable parts of the T6 model (base: the contract;
 world, forces, components, sensing: the catalog; actuation, anchors, fixed_anchors, contact:
-components of the mismatch stage; catalog: all of them by name)."""
-from physics.effects.actuation import TensionLimitedActuation
+components of the mismatch stage and the actuator read from the encoders; catalog: all of them by name)."""
+from physics.effects.actuation import MOTOR_PARAMETERS, MeasuredActuator, TensionLimitedActuation
 from physics.effects.anchors import CableAnchors
 from physics.effects.base import Effect, ForceTerm, ModelSetup, WrenchTerm, model_space, split_theta
 from physics.effects.catalog import EFFECT_TYPES, catalog, effect_from_config
@@ -20,6 +20,7 @@ from physics.effects.world import CylinderCaps, EndCapRadius, GroundSlope, Point
 
 __all__ = ["Effect", "ForceTerm", "WrenchTerm", "ModelSetup", "model_space", "split_theta", "EFFECT_TYPES", "catalog",
            "effect_from_config", "ActuatorDelay", "EncoderOffset", "CableHysteresis", "NonlinearStiffness",
-           "RateLimitedActuation", "TensionLimitedActuation", "CableAnchors", "FixedCableAnchors",
+           "RateLimitedActuation", "TensionLimitedActuation", "MeasuredActuator", "MOTOR_PARAMETERS", "CableAnchors",
+           "FixedCableAnchors",
            "AirDrag", "ViscousDrag", "GroundViscosity", "RollingResistance", "SensorBias", "EndCapRadius",
            "CylinderCaps", "GroundSlope", "PointMass"]

@@ -105,6 +105,10 @@ class Effect(abc.ABC):
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     switchable: ClassVar[bool] = True
+    #: names of the effects this one makes redundant: they change the component it replaces
+    replaces: ClassVar[frozenset[str]] = frozenset()
+    #: T6 parameters the model no longer reads once this effect is in it (a model holds them fixed)
+    inert: ClassVar[tuple[str, ...]] = ()
 
     @abc.abstractmethod
     def parameters(self) -> tuple[Parameter, ...]:

@@ -1,7 +1,7 @@
 """The catalog of effects criticism tries, and rebuilding an effect from its configuration."""
 from __future__ import annotations
 
-from physics.effects.actuation import TensionLimitedActuation
+from physics.effects.actuation import MeasuredActuator, TensionLimitedActuation
 from physics.effects.anchors import CableAnchors
 from physics.effects.base import Effect
 from physics.effects.components import (
@@ -25,9 +25,10 @@ _CATALOG = (GroundSlope, AirDrag, ViscousDrag, GroundViscosity, CableHysteresis,
 
 #: Every effect class, by name: the catalog's, then those criticism does not try by default (EncoderOffset;
 #: TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps and RollingResistance, components of
-#: the mismatch stage, criticism.mismatch).
+#: the mismatch stage, criticism.mismatch; MeasuredActuator, read from the encoders).
 EFFECT_TYPES: dict[str, type[Effect]] = {cls.name: cls for cls in _CATALOG + (
-    EncoderOffset, TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps, RollingResistance)}
+    EncoderOffset, TensionLimitedActuation, CableAnchors, FixedCableAnchors, CylinderCaps, RollingResistance,
+    MeasuredActuator)}
 
 
 #: Options of the catalog's instances that differ from the classes' defaults: the point mass's rod

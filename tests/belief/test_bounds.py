@@ -194,7 +194,8 @@ def test_cli_prints_and_writes_the_inadequacy_block(tmp_path, capsys) -> None:
     path = save_trajectory(data, tmp_path / "long_rods.nc")
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command", required=True))
-    argv = ["identify", str(path), "--preset", "bo", "--budget", "20", "--candidates", "1024",
+    # BO's 20 evaluations of _identify_rod: the preset keeps the T6's D + 4 = 19 more for the assessment
+    argv = ["identify", str(path), "--preset", "bo", "--budget", "39", "--candidates", "1024",
             "--out", str(tmp_path / "out"), "--no-progress", "--no-next"]
     refused = parser.parse_args(argv)
     assert refused.func(refused) == 2 and "--bounds rod_length=" in capsys.readouterr().err

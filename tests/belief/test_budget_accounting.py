@@ -96,12 +96,17 @@ def test_every_posterior_keeps_a_finishing_step_preset_within_its_budget(posteri
     assert result.config["local_step"]["evaluations"] > 0
 
 
-def test_a_preset_without_the_step_reports_the_evaluations_after_its_budget() -> None:
-    """``bo`` keeps no evaluations for the verdicts' step: the run says so, with the numbers counted."""
+def test_a_preset_without_the_step_keeps_its_assessment_within_its_budget() -> None:
+    """``bo`` keeps the verdicts' step's D + 4 = 7 of its budget for the assessment, as bo-gn for its step
+    (belief.presets.reserved_evaluations), and takes the step only when a parameter narrowed: here p1
+    and p2 are identified, so the σ² residuals and the step spend all 7 and the run makes exactly 30."""
     result, counted, _ = _run("bo", 30)
-    assert result.n_evaluations == 30 and counted == result.config["evaluations"]["total"] > 30
-    assert f"after {counted} evaluations of E (budget 30, which counts the search's): 30 by the search and " \
-           f"{counted - 30} after it" in result.summary()
+    assert "error" in result.belief.attrs["local_fit"]              # the verdicts' step ran
+    assert result.n_evaluations == 30 - 7 and counted == result.config["evaluations"]["total"] == 30
+    assert result.config["evaluations"] == {"search": 23, "after_search": 7, "total": 30}
+    text = result.summary()
+    assert "after 30 evaluations of E (budget 30): 23 by the search and 7 after it" in text
+    assert "which counts the search's" not in text
 
 
 def _suggested(messages: list[str], pattern: str) -> int:

@@ -15,11 +15,13 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-@pytest.mark.parametrize("preset,extra,n", [("bo", [], 10), ("latent", ["--decoder", "rembo"], 10),
-                                             ("random", [], 10), ("bo-gn", [], 10 - 6)])
-def test_identify_push_toy_writes_everything(tmp_path, preset: str, extra: list, n: int, capsys) -> None:
+# every preset keeps D + 4 = 6 evaluations of the push toy's budget (D = 2) for after its search
+@pytest.mark.parametrize("preset,extra,budget,n", [
+    ("bo", [], 16, 16 - 6), ("latent", ["--decoder", "rembo"], 16, 16 - 6), ("random", [], 16, 16 - 6),
+    ("bo-gn", [], 10, 10 - 6)])
+def test_identify_push_toy_writes_everything(tmp_path, preset: str, extra: list, budget: int, n: int, capsys) -> None:
     out = tmp_path / preset
-    args = _parser().parse_args(["identify", "--toy", "push", "--preset", preset, *extra, "--budget", "10",
+    args = _parser().parse_args(["identify", "--toy", "push", "--preset", preset, *extra, "--budget", str(budget),
                                  "--out", str(out), "--no-progress", "--points-per-dim", "15"])
     assert args.func(args) == 0
     for name in ("result.nc", "summary.txt", "marginals.csv", "history.csv", "error_vs_evaluations.png",
@@ -27,6 +29,7 @@ def test_identify_push_toy_writes_everything(tmp_path, preset: str, extra: list,
         assert (out / name).stat().st_size > 0, name
     res = IdentificationResult.load(out / "result.nc")
     assert res.n_evaluations == n and abs(float(res.posterior.sum()) - 1) < 1e-9
+    assert res.config["evaluations"]["search"] == n and res.config["evaluations"]["total"] <= budget
     assert res.config["preset"] == preset
     assert (out / "history.csv").read_text().count("\n") == n + 1
     printed = capsys.readouterr().out
@@ -82,16 +85,16 @@ def test_usage_errors(tmp_path, capsys) -> None:
     args = p.parse_args(["identify", "--toy", "push", "--preset", "handoff", "--decoder", "rembo", "--latent", "10",
                          "--budget", "10", "--out", str(tmp_path)])
     assert args.func(args) == 2
-    assert "give at least 11" in capsys.readouterr().err
+    assert "give at least 17" in capsys.readouterr().err         # 10 latent + 1 + the D + 4 = 6 kept after
 
 
 def test_handoff_continues_in_the_full_space(tmp_path) -> None:
     out = tmp_path / "handoff"
     args = _parser().parse_args(["identify", "--toy", "push", "--preset", "handoff", "--decoder", "rembo", "--dim", "1",
-                                 "--latent", "5", "--budget", "11", "--candidates", "256", "--out", str(out), "--no-progress"])
+                                 "--latent", "5", "--budget", "17", "--candidates", "256", "--out", str(out), "--no-progress"])
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
-    assert res.n_evaluations == 11 and res.config["decoder"]["kind"] == "identity"
+    assert res.n_evaluations == 17 - 6 and res.config["decoder"]["kind"] == "identity"   # 6 = D + 4 kept after
     assert res.config["grid"]["n"] == 256 and len(res.config["grid"]["include"]) == 5
     assert (out / "journal-latent.sqlite").exists() and (out / "posterior_marginals.png").stat().st_size > 0
 
@@ -106,10 +109,10 @@ def test_identify_t6_trajectory_file(tmp_path) -> None:
     path = save_trajectory(data, tmp_path / "obs.nc")
     out = tmp_path / "out"
     args = _parser().parse_args(["identify", str(path), "--preset", "latent", "--decoder", "rembo", "--dim", "3", "--points-per-dim", "5",
-                                 "--budget", "6", "--out", str(out), "--no-progress", "--no-next"])
+                                 "--budget", "25", "--out", str(out), "--no-progress", "--no-next"])
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
-    assert res.n_evaluations == 6 and res.marginals.sizes["parameter"] == 15
+    assert res.n_evaluations == 25 - 19 and res.marginals.sizes["parameter"] == 15     # 19 = D + 4 kept after
     assert res.config["objective"]["kind"] == "T6 TrajectoryObjective"
     assert (out / "posterior_marginals.png").exists() and (out / "observed_vs_predicted.png").exists()
 
@@ -128,12 +131,12 @@ def two_files(tmp_path_factory):
 @pytest.mark.slow
 def test_identify_several_trajectory_files_make_one_objective(tmp_path, two_files, capsys) -> None:
     out = tmp_path / "out"
-    args = _parser().parse_args(["identify", *two_files, "--preset", "random", "--budget", "3", "--windows", "2",
+    args = _parser().parse_args(["identify", *two_files, "--preset", "random", "--budget", "22", "--windows", "2",
                                  "--out", str(out), "--no-progress", "--no-next"])
     assert args.data == two_files and args.windows == 2
     assert args.func(args) == 0
     res = IdentificationResult.load(out / "result.nc")
-    assert res.n_evaluations == 3
+    assert res.n_evaluations == 22 - 19                     # the T6's D + 4 = 19 kept for the assessment
     assert res.config["objective"]["segments"] == ["t0/w0", "t0/w1", "t1/w0", "t1/w1"]
     assert (out / "observed_vs_predicted.png").stat().st_size > 0
 

@@ -62,7 +62,7 @@ def _bad_outs(tmp_path: Path) -> dict[str, tuple[str, str]]:
 
 @pytest.mark.parametrize("command", ["identify", "diagnose", "plan", "probe"])
 def test_every_bad_out_is_a_one_line_typed_error(command: str, tmp_path, data, capsys) -> None:
-    args = {"identify": ["identify", *TOY, "--budget", "6"], "diagnose": ["diagnose", *data],
+    args = {"identify": ["identify", *TOY, "--budget", "12"], "diagnose": ["diagnose", *data],
             "plan": ["plan", str(tmp_path / "belief.nc"), "--goal", "1", "0"],
             "probe": ["probe", str(tmp_path / "belief.nc")]}[command]
     for name, (out, says) in _bad_outs(tmp_path).items():
@@ -80,7 +80,7 @@ def test_an_unwritable_out_is_a_one_line_error(tmp_path, monkeypatch, capsys) ->
     locked.chmod(0o500)
     real = os.access
     monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if Path(p) == locked else real(p, mode, **kw))
-    assert main(["identify", *TOY, "--budget", "6", "--out", str(locked / "run")]) == 2
+    assert main(["identify", *TOY, "--budget", "12", "--out", str(locked / "run")]) == 2
     _error(capsys, f"{locked} is not writable")
     assert os.listdir(locked) == []
 
@@ -95,32 +95,39 @@ def test_budget_zero_leaves_no_folder_and_the_corrected_run_works(tmp_path, caps
     assert main(["identify", "--toy", "push", "--budget", "6", "--out", str(out), "--no-progress"]) == 2
     _error(capsys, "budget=6 is too small for preset 'handoff-gn'")
     assert not (tmp_path / "nested").exists()
-    assert main(["identify", *TOY, "--budget", "6", "--out", str(out)]) == 0
-    assert IdentificationResult.load(out / "result.nc").n_evaluations == 6
+    # the push toy's D = 2: the search makes 12 - (D + 4) = 6, the 6 kept for its assessment
+    assert main(["identify", *TOY, "--budget", "12", "--out", str(out)]) == 0
+    result = IdentificationResult.load(out / "result.nc")
+    assert result.n_evaluations == 6 and result.config["evaluations"]["search"] == 6
+    assert result.config["evaluations"]["total"] <= 12
 
 
 def test_a_budget_within_the_initial_design_is_warned_with_the_numbers(tmp_path, capsys) -> None:
-    assert main(["identify", *TOY, "--budget", "5", "--out", str(tmp_path / "a")]) == 0
+    # the push toy's D = 2: bo keeps D + 4 = 6 of the budget for its assessment, as bo-gn for its step
+    assert main(["identify", *TOY, "--budget", "11", "--out", str(tmp_path / "a")]) == 0
     err = capsys.readouterr().err
-    assert "--budget 5 leaves 5 evaluations for BO over the full space, no more than its initial design of 5 " \
-           "Sobol points: BO never runs" in err and "give --budget 6 or more" in err
+    assert "--budget 11 leaves 5 evaluations after the 6 of the Gauss-Newton step after it for BO over the full " \
+           "space, no more than its initial design of 5 Sobol points: BO never runs" in err
+    assert "give --budget 12 or more" in err
     assert main(["identify", *TOY[:3], "bo-gn", "--no-progress", "--budget", "10", "--out", str(tmp_path / "b")]) == 0
     err = capsys.readouterr().err
     assert "leaves 4 evaluations after the 6 of the Gauss-Newton step" in err and "give --budget 12 or more" in err
-    assert main(["identify", *TOY, "--budget", "6", "--out", str(tmp_path / "c")]) == 0
+    assert main(["identify", *TOY, "--budget", "12", "--out", str(tmp_path / "c")]) == 0
     assert "BO never runs" not in capsys.readouterr().err
 
 
 def test_the_t6_budget_of_the_issue_is_warned_before_anything_runs() -> None:
-    """--budget 15 with --preset bo on the T6: 15 evaluations, all of the 16-point initial design."""
+    """--budget 30 with --preset bo on the T6: 11 evaluations for the search after the 19 kept for the
+    Gauss-Newton step after it, fewer than the 16-point initial design."""
     from belief.cli import _budget_note, register_identify
 
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command"))
-    note = _budget_note(parser.parse_args(["identify", "x.nc", "--preset", "bo", "--budget", "15", "--out", "o"]),
+    note = _budget_note(parser.parse_args(["identify", "x.nc", "--preset", "bo", "--budget", "30", "--out", "o"]),
                         None, 15)
-    assert note is not None and "initial design of 16 Sobol points" in note and "give --budget 17 or more" in note
-    assert _budget_note(parser.parse_args(["identify", "x.nc", "--preset", "bo", "--budget", "17", "--out", "o"]),
+    assert note is not None and "initial design of 16 Sobol points" in note and "give --budget 36 or more" in note
+    assert "leaves 11 evaluations after the 19 of the Gauss-Newton step" in note
+    assert _budget_note(parser.parse_args(["identify", "x.nc", "--preset", "bo", "--budget", "36", "--out", "o"]),
                         None, 15) is None
 
 
@@ -156,7 +163,7 @@ def _bad_boxes(tmp_path: Path) -> dict[str, tuple[list[str], str]]:
 def test_each_bad_prior_box_is_a_one_line_error_then_the_corrected_run_works(tmp_path, data, capsys) -> None:
     out = tmp_path / "run"
     for name, (options, says) in _bad_boxes(tmp_path).items():
-        assert main(["identify", data[0], "--preset", "random", "--budget", "2", *options, "--out", str(out),
+        assert main(["identify", data[0], "--preset", "random", "--budget", "21", *options, "--out", str(out),
                      "--no-progress"]) == 2, name
         _error(capsys, says)
         assert not out.exists(), name
@@ -165,7 +172,8 @@ def test_each_bad_prior_box_is_a_one_line_error_then_the_corrected_run_works(tmp
         with pytest.raises(ParameterError, match=re.escape(says)):
             prior_box(ParameterSpace.t6(), nominal=given["--nominal"], bounds=given["--bounds"],
                       params=(given["--params"] or [None])[0])
-    assert main(["identify", data[0], "--preset", "random", "--budget", "2", "--nominal", "rod_length=1.8",
+    # the T6's D = 15: random search of 21 - (D + 4) = 2 evaluations, as before the assessment's reserve
+    assert main(["identify", data[0], "--preset", "random", "--budget", "21", "--nominal", "rod_length=1.8",
                  "--out", str(out), "--no-progress"]) == 0
     printed = capsys.readouterr().out
     assert "rod_length = 1.8 m in [1.62, 1.98] (default 1.74 in [1.566, 1.914])" in printed
@@ -216,7 +224,7 @@ def test_diagnose_validates_the_box_like_identify(tmp_path, data, capsys) -> Non
 
 # -------------------------------------------------------------------------------------------------- journals
 def test_a_journal_of_another_problem_is_set_aside_unless_resume(tmp_path, capsys) -> None:
-    out, run = tmp_path / "run", ["identify", *TOY, "--budget", "6"]
+    out, run = tmp_path / "run", ["identify", *TOY, "--budget", "12"]       # 6 searched, 6 kept (D + 4)
     assert main([*run, "--bounds", "m=0.6:1.4", "--out", str(out)]) == 0        # the run with the wrong box
     capsys.readouterr()
     assert main([*run, "--resume", "--out", str(out)]) == 2
@@ -234,12 +242,12 @@ def test_a_journal_of_another_problem_is_set_aside_unless_resume(tmp_path, capsy
 
 def test_resume_needs_a_journal(tmp_path, capsys) -> None:
     out = tmp_path / "fresh"
-    assert main(["identify", *TOY, "--budget", "6", "--resume", "--out", str(out)]) == 2
+    assert main(["identify", *TOY, "--budget", "12", "--resume", "--out", str(out)]) == 2
     _error(capsys, f"--resume: no journal at {out / 'journal.sqlite'} to resume")
     assert not out.exists()
-    assert main(["identify", *TOY, "--budget", "6", "--journal", "none", "--resume", "--out", str(out)]) == 2
+    assert main(["identify", *TOY, "--budget", "12", "--journal", "none", "--resume", "--out", str(out)]) == 2
     _error(capsys, "--resume: no journal at None")
-    assert main(["identify", *TOY, "--budget", "6", "--journal", str(tmp_path), "--out", str(out)]) == 2
+    assert main(["identify", *TOY, "--budget", "12", "--journal", str(tmp_path), "--out", str(out)]) == 2
     _error(capsys, "--journal", "is a folder")
 
 

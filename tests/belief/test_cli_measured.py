@@ -11,7 +11,8 @@ import pytest
 from belief import IdentificationResult
 from physics.cli import main
 
-TOY = ["--toy", "push", "--preset", "bo", "--no-progress", "--budget", "6"]
+# with mu fixed the search is 1-D: bo searches 6 of the 11 and keeps D + 4 = 5 for its assessment
+TOY = ["--toy", "push", "--preset", "bo", "--no-progress", "--budget", "11"]
 
 
 def _error(capsys: pytest.CaptureFixture[str], *needles: str) -> str:
@@ -78,6 +79,7 @@ def test_measured_and_fixed_values_are_recorded_and_the_fixed_leave_the_search(t
     assert result.config["fixed"] == {"mu": 0.4}
     assert set(result.config["prior_box"]) == {"m", "mu"}                 # the whole box, the fixed one too
     assert list(result.history["parameter"].values) == ["m"]               # only m was searched
+    assert result.config["evaluations"]["search"] == 11 - 5 and result.config["evaluations"]["total"] <= 11
     summary = (out / "summary.txt").read_text().splitlines()
     start = summary.index("Measured by the user:")
     assert summary[start:] == ["Measured by the user:", "  m = 1 ± 0.1 kg  (mass of the pushed point)",

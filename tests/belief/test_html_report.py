@@ -78,7 +78,8 @@ def test_identify_report_holds_the_data_files_and_their_checks(tmp_path) -> None
 
     path = save_trajectory(simulate(T6.nominal, controller=FlopController(heading=0.0), duration=0.4),
                            tmp_path / "flop.nc")
-    args = _identify([str(path), "--preset", "random", "--budget", "3", "--out", str(tmp_path / "out")])
+    # the T6's D = 15: random search of 22 - (D + 4) = 3 evaluations
+    args = _identify([str(path), "--preset", "random", "--budget", "22", "--out", str(tmp_path / "out")])
     page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
     pngs = sorted(p.name for p in (tmp_path / "out").glob("*.png"))
     assert "observed_vs_predicted.png" in pngs and "pairs.png" in pngs

@@ -5,9 +5,10 @@ import warnings
 
 import numpy as np
 import pytest
+from linear_objective import LinearObjective
 
 from belief import BeliefError, BudgetError, Grid, identify
-from belief.presets import DEFAULT_PRESET, PRESETS, Preset, PresetWarning, resolve, run_preset
+from belief.presets import DEFAULT_PRESET, PRESETS, Preset, PresetWarning, reserved_evaluations, resolve, run_preset
 from embeddings import REMBO, Identity
 from physics.push import PushObjective, generate_push_data, push_space
 
@@ -37,16 +38,19 @@ class Counting:
 
 
 def test_the_bo_preset_is_full_space_bo_over_the_same_cells(push) -> None:
-    result = run_preset(push, "bo", budget=12, seed=3, progress=False)
+    """The preset's budget keeps D + 4 = 6 for the assessment; a grid's search budget counts the search's."""
+    result = run_preset(push, "bo", budget=12 + 6, seed=3, progress=False)
     decoder = Identity(push.space)
     direct = identify(push, decoder, Grid.for_decoder(decoder, points_per_dim=11), budget=12, seed=3, progress=False)
+    assert result.n_evaluations == direct.n_evaluations == 12
     np.testing.assert_array_equal(result.history["theta"].values, direct.history["theta"].values)
     assert result.config["preset"] == "bo" and result.config["stages"] == ["bo over the full space"]
 
 
 def test_the_finishing_step_counts_in_the_budget_and_never_raises_the_best_error(push) -> None:
     counting = Counting(push)
-    bo = run_preset(push, "bo", budget=9, seed=1, progress=False)
+    bo = run_preset(push, "bo", budget=9 + 2 + 4, seed=1, progress=False)      # the same 9 of search: bo keeps
+    assert bo.n_evaluations == 9                                                # the same reserve, unspent
     result = run_preset(counting, "bo-gn", budget=9 + 2 + 4, seed=1, progress=False)
     step = result.config["local_step"]
     assert result.n_evaluations == 9 and step["evaluations"] == push.space.dim + 4
@@ -60,6 +64,25 @@ def test_the_finishing_step_counts_in_the_budget_and_never_raises_the_best_error
         assert result.best_error == pytest.approx(float(push(result.best_theta.values)), rel=1e-9)
 
 
+@pytest.mark.parametrize("preset", ["bo", "random", "bo-gn"])
+def test_an_assessed_preset_searches_its_budget_less_the_reserve_and_makes_at_most_its_budget(preset: str) -> None:
+    """Every preset whose search is assessed keeps reserved_evaluations (D + 4 = 6 for D = 2) of the budget
+    for after the search, so the run makes at most ``budget`` evaluations. σ² is unknown here (the "ess"
+    rule evaluates the residuals at the best θ), so the assessment does spend some of the reserve."""
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(40, 2))
+    objective = LinearObjective(A, A @ np.array([0.4, 0.6]) + 0.01 * rng.normal(size=40))
+    budget, reserve = 16, reserved_evaluations(preset, 2)
+    assert reserve == 2 + 4
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                          # 10 evaluations in 2-D: the GP budget warning
+        result = run_preset(objective, preset, budget=budget, seed=0, progress=False)
+    made = result.config["evaluations"]
+    assert made["search"] == result.n_evaluations == budget - reserve
+    assert made["after_search"] > 0 and made["total"] == made["search"] + made["after_search"]
+    assert made["total"] <= budget
+
+
 def test_a_handoff_preset_without_a_decoder_for_the_space_runs_without_its_latent_stage(push) -> None:
     with pytest.warns(PresetWarning, match="no latent decoder"):
         result = run_preset(push, "handoff", budget=20, seed=0, progress=False)
@@ -71,8 +94,8 @@ def test_a_handoff_preset_carries_its_latent_evaluations_into_the_full_space(pus
     preset = Preset("short-handoff", latent=6)
     with warnings.catch_warnings():
         warnings.simplefilter("error", PresetWarning)
-        result = run_preset(push, preset, budget=14, seed=0, decoder=decoder, progress=False)
-    assert result.n_evaluations == 14
+        result = run_preset(push, preset, budget=14 + 6, seed=0, decoder=decoder, progress=False)
+    assert result.n_evaluations == 14                     # 6 latent, 8 in the full space; D + 4 = 6 kept after
     image = decoder.decode(Grid.for_decoder(decoder, points_per_dim=11).points)
     for theta in result.history["theta"].values[:6]:
         assert np.min(np.abs(image - theta).max(axis=1)) < 1e-12
@@ -82,6 +105,8 @@ def test_a_handoff_preset_carries_its_latent_evaluations_into_the_full_space(pus
 def test_budgets_too_small_for_a_recipe_are_refused_with_the_numbers(push) -> None:
     with pytest.raises(BudgetError, match="at least 8"):
         run_preset(push, "bo-gn", budget=6, seed=0, progress=False)
+    with pytest.raises(BudgetError, match="at least 8"):      # bo keeps the same D + 4 = 6 for its assessment
+        run_preset(push, "bo", budget=7, seed=0, progress=False)
     with pytest.raises(BeliefError, match="needs decoder="):
         run_preset(push, "latent", budget=10, seed=0, progress=False)
     with pytest.raises(BeliefError, match="unknown preset"):

@@ -77,8 +77,10 @@ def test_diagnose_prints_the_estimate_and_every_stage(two_files) -> None:
     assert isinstance(result, Diagnosis)
     assert lines[0].startswith("diagnose: estimate: at most about") and "min on this machine" in lines[0]
     stages = [line for line in lines[1:] if ": started" in line]
-    assert [s.split(": ")[1] for s in stages] == ["first model", "identification 0", "pass 1 criticism"]
-    assert sum(": done in" in line for line in lines) == 3
+    assert [s.split(": ")[1] for s in stages] == ["actuator reading", "first model", "identification 0",
+                                                  "pass 1 criticism"]
+    assert sum(": done in" in line for line in lines) == 4
+    assert result.actuator is not None and result.actuator.effect is None   # the motor's own readings: kept
     assert np.isfinite(result.passes[0].theta).all()
 
 

@@ -72,9 +72,9 @@ def test_diagnose_writes_the_model_with_the_stage_s_components_and_identify_uses
     args = argparse.Namespace(data=files, out=str(tmp_path / "diag"), budget=6, no_progress=True, skip_checks=False)
     page = write_diagnose_report(tmp_path / "diag", d, anchored, args).read_text(encoding="utf-8")
     assert "Engine mismatch" in page and "The mismatch stage added cable_anchors to the T6" in page
-    out = tmp_path / "ident"
+    out = tmp_path / "ident"            # BO's 8 evaluations; the T6 with cable_anchors (D = 16) keeps D + 4 = 20
     assert main(["identify", files[0], "--model", str(tmp_path / "diag" / "model.json"), "--preset", "bo",
-                 "--budget", "8", "--candidates", "64", "--out", str(out), "--no-progress", "--no-next"]) == 0
+                 "--budget", "28", "--candidates", "64", "--out", str(out), "--no-progress", "--no-next"]) == 0
     result = xr.open_dataset(out / "result.nc")
     assert "anchor_offset" in [str(p) for p in result["parameter"].values]
     assert json.loads(result.attrs["config"])["effects"] == [{"effect": "cable_anchors"}]

@@ -91,11 +91,12 @@ def test_train_embedding_then_identify_with_it(tmp_path, capsys) -> None:
     assert "held-out MSE" in printed and out.exists() and (tmp_path / "ae.dynamics.json").exists()
     parser = argparse.ArgumentParser(prog="tensegrid")
     register_identify(parser.add_subparsers(dest="command", required=True))
+    # 5 evaluations in the latent grid; the push toy's D + 4 = 6 of the budget kept for the assessment
     run = parser.parse_args(["identify", "--toy", "push", "--preset", "latent", "--decoder", "ae-dyn", "--decoder-file", str(out),
-                             "--budget", "5", "--out", str(tmp_path / "id"), "--no-progress"])
+                             "--budget", "11", "--out", str(tmp_path / "id"), "--no-progress"])
     assert run.func(run) == 0
     wrong = parser.parse_args(["identify", "--toy", "push", "--preset", "latent", "--decoder", "vae", "--decoder-file", str(out),
-                               "--budget", "5", "--out", str(tmp_path / "id2"), "--no-progress"])
+                               "--budget", "11", "--out", str(tmp_path / "id2"), "--no-progress"])
     assert wrong.func(wrong) == 2
     assert "holds a ae-dyn decoder" in capsys.readouterr().err
     toy = _parser().parse_args(["train-embedding", "ae-dyn", "--toy", "push", "--counterfactual", "--out",

@@ -185,11 +185,12 @@ def test_mistakes_are_one_line_errors_before_any_simulation(data: Path, tmp_path
 
 
 def test_a_result_of_a_real_identification_replays(data: Path, tmp_path: Path) -> None:
-    """``tensegrid identify`` (2 evaluations) writes the result.nc that simulate --from reads."""
+    """``tensegrid identify`` (2 evaluations of random search, the T6's D + 4 = 19 of the budget kept
+    for the assessment) writes the result.nc that simulate --from reads."""
     short = tmp_path / "short.nc"
     save_trajectory(load_trajectory(data / "exact.nc").isel(time=slice(0, 41)), short)
     done = subprocess.run([sys.executable, "-m", "physics.cli", "identify", str(short), "--preset", "random",
-                           "--budget", "2", "--no-progress", "--no-next", "--out", str(tmp_path / "id")],
+                           "--budget", "21", "--no-progress", "--no-next", "--out", str(tmp_path / "id")],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     with xr.open_dataset(tmp_path / "id" / "result.nc", engine="netcdf4") as root:
