@@ -139,6 +139,32 @@ def noise_floor(row: dict) -> float:
     return float(TrajectoryObjective([ds], horizon=1, loss="squared", effects=effects, n_workers=0)(theta))
 
 
+def readings_table(rows: list[dict]) -> None:
+    """Where a (source, data set, seed) ran with and without ``--read-actuator``: the held-out one-step
+    error and drift at 0.5 s of the bare T6 re-tuned, and after the stage without and with the
+    actuator read from the encoders, each with its components (a markdown table)."""
+    pairs: dict[tuple, dict[bool, dict]] = {}
+    for r in rows:
+        key = (r.get("source", "testbed"), r["dataset"], r["seed"], r["noise"], r.get("flops_version", 1))
+        pairs.setdefault(key, {})[bool(r.get("read_actuator"))] = r
+    done = [(k, v) for k, v in pairs.items() if len(v) == 2]
+    if not done:
+        return
+    print("| source | data set | seed | bare T6 re-tuned: E1 x10^3, drift [mm] | without readings: kept; E1 x10^3, "
+          "drift | with readings: kept; E1 x10^3, drift |")
+    print("|---|---|---|---|---|---|")
+    short = {"tension_limited_actuator": "actuator", "cable_anchors": "anchors", "rolling_resistance": "rolling"}
+    for (source, dataset, seed, _, _), v in sorted(done):
+        bare, off, on = v[False]["before"], v[False], v[True]
+
+        def cell(r: dict) -> str:
+            kept = ", ".join(short.get(n, n) for n in r["read"] + r["kept"]).replace("measured_actuator", "measured")
+            return f"{kept}; {1e3 * r['after']['one_step']:.3f}, {1e3 * r['after']['drift']:.1f}"
+
+        print(f"| {source} | {dataset} | {seed} | {1e3 * bare['one_step']:.3f}, {1e3 * bare['drift']:.1f} | "
+              f"{cell(off)} | {cell(on)} |")
+
+
 def summarize(rows: list[dict]) -> None:
     print(f"{'data set':10s} {'seed':>4s}  {'E1 nominal':>10s} {'before':>8s} {'after':>8s} {'ratio':>6s}  "
           f"{'drift nominal':>13s} {'before':>7s} {'after':>7s} {'ratio':>6s}  kept (sizes); at bounds after")
@@ -168,6 +194,7 @@ def summarize(rows: list[dict]) -> None:
         bare, a = r["bare_before"], r["after"]
         print(f"{r['dataset']} seed {r['seed']}: read {', '.join(r['read'])}; after / bare before: one-step "
               f"{a['one_step'] / bare['one_step']:.2f}, drift {a['drift'] / bare['drift']:.2f}")
+    readings_table(rows)
     if ratios:
         arr = np.array(ratios)
         both = int(((arr[:, 0] <= 0.5) & (arr[:, 1] <= 0.5)).sum())

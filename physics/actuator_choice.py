@@ -28,7 +28,7 @@ import xarray as xr
 
 from physics.actuator_readings import ActuatorConfig, identify_actuator
 from physics.actuator_summary import ActuatorFit
-from physics.effects.actuation import MOTOR_PARAMETERS, MeasuredActuator
+from physics.effects.actuation import MeasuredActuator
 from physics.errors import ParameterError
 from physics.model_options import ModelOptions
 from physics.parameters import ParameterSpace
@@ -145,9 +145,10 @@ def choose_actuator(trajectories: Sequence[xr.Dataset], space: ParameterSpace, *
     if mode == "auto" and not better:
         return ActuatorChoice(fit=fit, law_rms=fit.rms, motor_rms=motor, effect=None, inert=(),
                               reason=f"the model keeps its motor: {figures}")
-    inert = tuple(n for n in MOTOR_PARAMETERS if n in space.names)
-    return ActuatorChoice(fit=fit, law_rms=fit.rms, motor_rms=motor, effect=MeasuredActuator.from_fit(fit),
-                          inert=inert, reason=f"the measured law is the model's actuator: {figures}")
+    effect = MeasuredActuator.from_fit(fit)
+    return ActuatorChoice(fit=fit, law_rms=fit.rms, motor_rms=motor, effect=effect,
+                          inert=tuple(n for n in effect.inert if n in space.names),
+                          reason=f"the measured law is the model's actuator: {figures}")
 
 
 def add_actuator_option(group: argparse._ArgumentGroup) -> None:
