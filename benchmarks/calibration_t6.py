@@ -8,6 +8,8 @@ per problem) is recorded with 1 mm sensor noise, by one of these data-generating
   parameters drawn within ±10 %, the three motor parameters inert), its first flop or all three;
 - ``mujoco1``, ``mujoco3``: the same robots and flops in MuJoCo (benchmarks/testbed/mujoco_robot.py,
   the third engine), which no choice of this library was tuned on;
+- ``native1``, ``native3``: the same robots and flops on the SUPERball rebuilt with MuJoCo's own
+  tendons and winches (benchmarks/testbed/mujoco_native.py), which shares no robot code;
 - ``own``: this project's model, as the identifier assumes it;
 - ``mismatch``: a deliberately different model the identifier is not told about: physics step
   0.5 ms instead of 1 ms, ground friction 0.8 instead of 0.5, rod spin damping 0.5 instead of
@@ -31,6 +33,11 @@ identified or weakly identified.
     .venv/bin/python benchmarks/calibration_t6.py --problems 4 --budgets 30 --rule iid   # quick, old rule
     .venv/bin/python benchmarks/calibration_t6.py --bias --problems 3 --budgets 60       # the shared bias
 
+``--read-actuator`` identifies as ``tensegrid identify`` does on data with encoder readings: the
+actuator law read from them replaces the motor model when it fits them ten times better
+(physics.actuator_choice), and the motor parameters it makes inert are held at nominal (verdict
+"inert", no interval; left out of the counts).
+
 ``--bias`` prints, per problem, how much worse θ* fits each of 6 segments than the best evaluated θ
 (in % of that segment's error): a bias all segments share is what the discrepancy floor δ_0 of
 the "ess" noise rule covers (docs/identification.md).
@@ -53,7 +60,10 @@ from physics import (
     FlopController, ModelOptions, MotorGains, ParameterSpace, TrajectoryObjective, load_trajectory, simulate,
 )
 
-SCENARIOS = ("testbed1", "testbed3", "mujoco1", "mujoco3", "own", "mismatch")
+SCENARIOS = ("testbed1", "testbed3", "mujoco1", "mujoco3", "native1", "native3", "own", "mismatch")
+ENGINE_OF = {"testbed": "bullet", "mujoco": "mujoco", "native": "mujoco-native"}
+#: the verdict of a parameter held because the measured actuator makes it inert (--read-actuator)
+INERT = "inert"
 MISMATCH = ModelOptions(dt=5e-4, friction=0.8, spin_damping=0.5, motor=MotorGains(kp=5.0, kv=0.1))
 
 
@@ -82,9 +92,8 @@ def testbed_data(seed: int, flops: int, *, noise: float = 1e-3, engine: str = "b
 
 def problem_data(seed: int, scenario: str, *, duration: float = 3.0, noise: float = 1e-3):
     """(θ*, flop trajectory or trajectories) of problem ``seed`` under ``scenario``."""
-    if scenario.startswith(("testbed", "mujoco")):
-        engine = "mujoco" if scenario.startswith("mujoco") else "bullet"
-        return testbed_data(seed, int(scenario[-1]), noise=noise, engine=engine)
+    if scenario[:-1] in ENGINE_OF:
+        return testbed_data(seed, int(scenario[-1]), noise=noise, engine=ENGINE_OF[scenario[:-1]])
     space = ParameterSpace.t6()
     theta = space.sample(1, seed=seed)[0]
     heading = float(np.random.default_rng([seed, 7]).uniform(-np.pi, np.pi))
@@ -94,26 +103,52 @@ def problem_data(seed: int, scenario: str, *, duration: float = 3.0, noise: floa
     return theta, data
 
 
+def model_objective(data, read_actuator: bool):
+    """The objective of ``data``: the T6, or with ``read_actuator`` the model ``tensegrid identify``
+    builds from encoder readings, its inert parameters held (module docstring)."""
+    if not read_actuator:
+        return TrajectoryObjective(data, loss="squared", n_workers=0)
+    from physics.actuator_choice import choose_actuator
+    from physics.measurements import MeasurementPrior
+
+    space = ParameterSpace.t6()
+    choice = choose_actuator(data if isinstance(data, list) else [data], space)
+    effects = (choice.effect,) if choice is not None and choice.effect is not None else ()
+    known = MeasurementPrior(space).with_inert(choice.inert if effects else ())
+    return known.hold(TrajectoryObjective(data, loss="squared", n_workers=0, effects=effects))
+
+
+def _outcome(theta: np.ndarray, res) -> Outcome:
+    """The Outcome of one result over the T6's 15 parameters, those it held without an interval."""
+    names, m = ParameterSpace.t6().names, res.belief.marginals()
+    free = [names.index(str(n)) for n in m["parameter"].values]
+    lower, upper, best = (np.full(len(names), np.nan) for _ in range(3))
+    verdict, narrow = [INERT] * len(names), np.zeros(len(names), bool)
+    lower[free], upper[free], best[free] = m["lower"].values, m["upper"].values, np.asarray(res.best_theta.values)
+    narrow[free] = m["std"].values < 0.5 * m["prior_std"].values
+    for j, v in zip(free, m["verdict"].values, strict=True):
+        verdict[j] = str(v)
+    return Outcome(theta, lower, upper, verdict, narrow, best)
+
+
 def identify_problem(seed: int, scenario: str, budgets: list[int], *, rule: str = "ess", candidates: int = 4096,
                      duration: float = 3.0, workdir: str | None = None, discrepancy: float = 0.05,
-                     journals: str | None = None) -> dict[int, Outcome]:
+                     journals: str | None = None, read_actuator: bool = False) -> dict[int, Outcome]:
     """Outcomes of problem ``seed`` at each budget (one run, smaller budgets replayed from its journal;
     ``journals``: a folder that keeps the journals, so another posterior setting replays the same run)."""
     theta, data = problem_data(seed, scenario, duration=duration)
-    space = ParameterSpace.t6()
-    objective = TrajectoryObjective(data, loss="squared", n_workers=0)
-    decoder = Identity(space)
+    objective = model_objective(data, read_actuator)
+    decoder = Identity(objective.space)
     grid = SobolCandidates.for_decoder(decoder, n=candidates, seed=seed)
     cfg = PosteriorConfig(noise_rule=rule, discrepancy=discrepancy)
     out: dict[int, Outcome] = {}
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
-        journal = os.path.join(journals or tmp, f"{scenario}-{seed}-{max(budgets)}.sqlite")
+        tag = "-read" if read_actuator else ""
+        journal = os.path.join(journals or tmp, f"{scenario}-{seed}-{max(budgets)}{tag}.sqlite")
         for budget in sorted(budgets, reverse=True):
             res = identify(objective, decoder, grid, budget=budget, seed=seed, journal=journal, progress=False,
                            posterior=cfg)
-            m = res.belief.marginals()
-            out[budget] = Outcome(theta, m["lower"].values, m["upper"].values, [str(v) for v in m["verdict"].values],
-                                  m["std"].values < 0.5 * m["prior_std"].values, np.asarray(res.best_theta.values))
+            out[budget] = _outcome(theta, res)
     return out
 
 
@@ -146,17 +181,18 @@ def score(outcomes: list[Outcome], *, old_flag: bool = False) -> dict[str, float
             worst = max(worst, 0.0 if miss == 0.0 else miss / width if width > 0 else np.inf)
     return {"identified": n_id, "covered": hit, "coverage": hit / n_id if n_id else float("nan"),
             "worst_widths": worst, "per_problem": n_id / max(len(outcomes), 1),
-            "claimed": sum(v != "not identified" for o in outcomes for v in o.verdict),
-            "miss_best": sum(misses_best(o)),
+            "claimed": sum(v not in ("not identified", INERT) for o in outcomes for v in o.verdict),
+            "miss_best": sum(len(misses_best(o)) for o in outcomes),
             "holding": sum(int(np.sum((o.lower <= o.truth) & (o.truth <= o.upper))) for o in outcomes),
-            "intervals": sum(len(o.truth) for o in outcomes)}
+            "intervals": sum(v != INERT for o in outcomes for v in o.verdict)}
 
 
 def misses_best(o: Outcome) -> list[int]:
     """Parameters called identified or weakly identified whose interval misses the best evaluated θ."""
     if o.best is None:
         return []
-    return [j for j, v in enumerate(o.verdict) if v != "not identified" and not o.lower[j] <= o.best[j] <= o.upper[j]]
+    return [j for j, v in enumerate(o.verdict)
+            if v not in ("not identified", INERT) and not o.lower[j] <= o.best[j] <= o.upper[j]]
 
 
 def claimed_names(outcomes: list[Outcome], names: Sequence[str], first_seed: int) -> str:
@@ -165,16 +201,17 @@ def claimed_names(outcomes: list[Outcome], names: Sequence[str], first_seed: int
     parts = []
     for k, o in enumerate(outcomes):
         said = [f"{n}{'' if v == 'identified' else ' (weakly)'}" for n, v in zip(names, o.verdict, strict=True)
-                if v != "not identified"]
+                if v not in ("not identified", INERT)]
         parts.append(f"{first_seed + k}: {', '.join(said) or '-'}")
     return "; ".join(parts)
 
 
 def width_table(outcomes: list[Outcome]) -> np.ndarray:
-    """Median 90 % interval width per parameter, in % of the prior box (D,)."""
+    """Median 90 % interval width per parameter, in % of the prior box (D,; NaN where held inert)."""
     space = ParameterSpace.t6()
     w = np.array([(o.upper - o.lower) / (space.upper - space.lower) for o in outcomes])
-    return 100.0 * np.median(w, axis=0)
+    held = np.isnan(w).all(axis=0)
+    return 100.0 * np.where(held, np.nan, np.median(np.where(np.isnan(w), np.inf, w), axis=0))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -188,6 +225,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="δ_0 of the 'ess' noise rule (belief.noise)")
     p.add_argument("--journals", default=None, help="keep the runs' journals here (a rerun replays them)")
     p.add_argument("--bias", action="store_true", help="print the per-segment excess error of the truth instead")
+    p.add_argument("--read-actuator", action="store_true",
+                   help="identify with the actuator read from the encoder readings, as tensegrid identify does")
     args = p.parse_args(argv)
     space = ParameterSpace.t6()
     from tqdm.auto import tqdm
@@ -204,7 +243,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.journals:
             os.makedirs(args.journals, exist_ok=True)
         runs = [identify_problem(args.first_seed + k, scenario, args.budgets, rule=args.rule,
-                                 discrepancy=args.discrepancy, journals=args.journals)
+                                 discrepancy=args.discrepancy, journals=args.journals,
+                                 read_actuator=args.read_actuator)
                 for k in tqdm(range(args.problems), desc=scenario)]
         for budget in sorted(args.budgets):
             outs = [r[budget] for r in runs]

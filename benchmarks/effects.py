@@ -42,6 +42,8 @@ finding under ``passes``.
     .venv/bin/python benchmarks/effects.py --source testbed --mismatch --flops-version 2 --seeds 1 \
         --out benchmarks/results/effects-testbed-mismatch-flops2.jsonl           # flops new to every seed
 
+``--source mujoco-native`` runs it on the robot rebuilt with MuJoCo's own tendons and winches
+(testbed.mujoco_native; no drag, hysteresis or ground viscosity data sets).
 ``--source mujoco`` runs it on the same robots and flops in MuJoCo (testbed.mujoco_robot, the third
 engine; rows record ``engine``).
 
@@ -109,7 +111,7 @@ TESTBED_TRUTH: dict[str, tuple[str, ...]] = {
 TESTBED_FIELDS = {"ground_slope": ("slope",), "actuator_delay": ("actuator_delay",), "viscous_drag": ("drag",),
                   "cable_hysteresis": ("hysteresis",)}
 #: --source of a foreign robot -> its engine (testbed.datasets.ENGINES)
-FOREIGN = {"testbed": "bullet", "mujoco": "mujoco"}
+FOREIGN = {"testbed": "bullet", "mujoco": "mujoco", "mujoco-native": "mujoco-native"}
 
 
 def scenario_effects(name: str) -> list:
@@ -210,7 +212,8 @@ def run_one(name: str, seed: int, budget: int, held_out: str = "actuation", sour
                            larger=truth_names[0] if truth_names else None, mismatch=mismatch,
                            passes=max(1, len(truth_names)), read_contact=read_contact, journal_dir=folder,
                            loop=loop)
-        return {**row, "flops_version": flops_version, **({"engine": "mujoco"} if source == "mujoco" else {})}
+        return {**row, "flops_version": flops_version,
+                **({"engine": FOREIGN[source]} if source != "testbed" else {})}
     effects = scenario_effects(name)
     data, truth = make_data(name, seed, held_out=held_out)
     larger = larger_effect(name, data, truth) if name in MIXES else (effects[0].name if effects else None)

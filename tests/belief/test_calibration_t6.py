@@ -38,8 +38,22 @@ def test_score_counts_only_identified_parameters() -> None:
     assert old["identified"] == 1 and old["covered"] == 0 and old["worst_widths"] == pytest.approx(2.0)
 
 
+def test_score_counts_misses_of_every_problem_and_leaves_inert_parameters_out() -> None:
+    """A claimed interval that misses the best evaluated θ counts once per problem; a parameter held
+    inert (--read-actuator) is neither claimed nor an interval."""
+    def outcome(best: float) -> bench.Outcome:
+        return bench.Outcome(truth=np.array([1.0, 2.0, 3.0]), lower=np.array([0.9, 1.9, np.nan]),
+                             upper=np.array([1.1, 2.1, np.nan]),
+                             verdict=["identified", "weakly identified", bench.INERT],
+                             narrow=np.zeros(3, bool), best=np.array([1.0, best, 3.0]))
+    s = bench.score([outcome(2.5), outcome(2.0), outcome(2.5)])
+    assert s["miss_best"] == 2 and s["claimed"] == 6 and s["intervals"] == 6 and s["holding"] == 6
+    assert bench.claimed_names([outcome(2.0)], ["a", "b", "c"], 0) == "0: a, b (weakly)"
+
+
 @pytest.mark.parametrize(("scenario", "engine"),
-                         [("testbed1", "bullet"), ("testbed3", "bullet"), ("mujoco1", "mujoco")])
+                         [("testbed1", "bullet"), ("testbed3", "bullet"), ("mujoco1", "mujoco"),
+                          ("native1", "mujoco-native")])
 def test_foreign_scenarios_read_their_engines_recording(scenario: str, engine: str, monkeypatch) -> None:
     import testbed.datasets as datasets
 
